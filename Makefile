@@ -1,0 +1,54 @@
+# yamor — the developer entry points. `make demo` and `make test` each do all
+# set-up themselves on a fresh machine.
+PRESET ?= release
+BUILD_DIR := build/$(PRESET)
+FUZZ_TIME ?= 300
+FUZZ_SMOKE_TIME ?= 10
+JOBS ?= $(shell nproc)
+PY := .venv/bin/python
+
+.PHONY: all deps configure build test test-unit test-py fuzz fuzz-build fuzz-smoke bench demo clean asan
+
+all: build
+
+deps:
+	@tools/deps/install.sh
+
+configure: deps
+	@cmake --preset $(PRESET) >/dev/null
+
+build: configure
+	@cmake --build --preset $(PRESET) -j $(JOBS)
+
+test-unit: build
+	@ctest --preset $(PRESET) -j $(JOBS)
+
+test-py: deps
+	@if [ -d tests/python ]; then $(PY) -m pytest -q tests/python; fi
+
+test: test-unit test-py fuzz-smoke
+	@echo "make test: all suites passed"
+
+asan:
+	@$(MAKE) test-unit PRESET=asan
+
+fuzz-build: deps
+	@cmake --preset fuzz >/dev/null
+	@cmake --build --preset fuzz -j $(JOBS)
+
+# Each fuzzer runs FUZZ_SMOKE_TIME seconds from its seed corpus.
+fuzz-smoke: fuzz-build
+	@tools/fuzz/run.sh build/fuzz $(FUZZ_SMOKE_TIME)
+
+# As long as asked: make fuzz FUZZ_TIME=3600
+fuzz: fuzz-build
+	@tools/fuzz/run.sh build/fuzz $(FUZZ_TIME)
+
+bench: build
+	@tools/bench/run.sh $(BUILD_DIR)
+
+demo: build
+	@tools/demo.sh $(BUILD_DIR)
+
+clean:
+	rm -rf build

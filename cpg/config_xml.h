@@ -1,0 +1,31 @@
+// XML read/write of robot configurations in the thesis schema (C.4).
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "cpg/robot_config.h"
+
+namespace yamor::cpg {
+
+/// Parses and validates a configuration from XML text. `source_name` is used
+/// in error messages. Accepts `realid` or `id`, `cpglink` or `cpmlink`.
+/// Throws yamor::Error(INVALID_ARGUMENT) with file:line on any problem.
+RobotConfig ParseConfigXml(std::string_view xml,
+                           std::string_view source_name = "<string>");
+
+/// Reads and validates the configuration file at `path`. Throws
+/// yamor::Error(NOT_FOUND) when the file cannot be read, INVALID_ARGUMENT
+/// when it is malformed.
+RobotConfig LoadConfigFile(const std::string& path);
+
+/// Writes `config` in the canonical form (`realid`, `cpglink`, a `master`
+/// attribute, doubles with round-trip precision). Lossless: parsing the
+/// result gives an equal config.
+std::string WriteConfigXml(const RobotConfig& config);
+
+/// Writes `config` to `path` (canonical form). Throws yamor::Error on I/O
+/// failure.
+void SaveConfigFile(const RobotConfig& config, const std::string& path);
+
+}  // namespace yamor::cpg

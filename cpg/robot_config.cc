@@ -1,0 +1,1 @@
+#include "cpg/robot_config.h"

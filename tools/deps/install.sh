@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs yamor's Debian packages and creates the Python venv (.venv).
+# Idempotent and fast when everything is present; works as root or via sudo.
+set -euo pipefail
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+pkgs=$(grep -v '^\s*#' "$root/tools/deps/debian-packages.txt" | grep -v '^\s*$')
+
+missing=()
+for p in $pkgs; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed'; then
+    missing+=("$p")
+  fi
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "deps: installing ${missing[*]}"
+  if [ "$(id -u)" -eq 0 ]; then sudo=""; else sudo="sudo"; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+venv="$root/.venv"
+req="$root/tools/requirements.txt"
+stamp="$venv/.requirements.sha256"
+want=$(sha256sum "$req" | cut -d' ' -f1)
+if [ ! -x "$venv/bin/python" ]; then
+  echo "deps: creating $venv"
+  python3 -m venv "$venv"
+fi
+if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
+  echo "deps: installing Python requirements"
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check -r "$req"
+  echo "$want" > "$stamp"
+fi

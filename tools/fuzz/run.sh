@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Runs every libFuzzer binary in BUILD_DIR/tests/fuzz for SECONDS each, from
+# its checked-in seed corpus (tests/fuzz/corpus/<name>) plus a scratch corpus.
+set -euo pipefail
+build="$1"; seconds="$2"
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+found=0
+for fuzzer in "$build"/tests/fuzz/*_fuzzer; do
+  [ -x "$fuzzer" ] || continue
+  found=1
+  name=$(basename "$fuzzer")
+  seeds="$root/tests/fuzz/corpus/$name"
+  scratch="$build/corpus-run/$name"
+  mkdir -p "$scratch"
+  echo "fuzz: $name for ${seconds}s"
+  args=("-max_total_time=$seconds" "-print_final_stats=1" "-artifact_prefix=$build/")
+  if [ -d "$seeds" ]; then "$fuzzer" "${args[@]}" "$scratch" "$seeds" 2>"$build/$name.log" || { tail -50 "$build/$name.log"; exit 1; }
+  else "$fuzzer" "${args[@]}" "$scratch" 2>"$build/$name.log" || { tail -50 "$build/$name.log"; exit 1; }
+  fi
+  grep -E 'stat::number_of_executed_units' "$build/$name.log" || true
+done
+[ "$found" = 1 ] || { echo "fuzz: no fuzzers found in $build/tests/fuzz"; exit 1; }
