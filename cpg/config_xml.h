@@ -11,6 +11,9 @@ namespace yamor::cpg {
 /// Parses and validates a configuration from XML text. `source_name` is used
 /// in error messages. Accepts `realid` or `id`, `cpglink` or `cpmlink`.
 /// Throws yamor::Error(INVALID_ARGUMENT) with file:line on any problem.
+/// Without a `master` attribute the master is the bluetooth tree's root.
+/// Couplings come out grouped by their `from` module, in module order (the
+/// canonical order). Fills the source locations. Thread-safe.
 RobotConfig ParseConfigXml(std::string_view xml,
                            std::string_view source_name = "<string>");
 
@@ -21,7 +24,9 @@ RobotConfig LoadConfigFile(const std::string& path);
 
 /// Writes `config` in the canonical form (`realid`, `cpglink`, a `master`
 /// attribute, doubles with round-trip precision). Lossless: parsing the
-/// result gives an equal config.
+/// result gives an equal config when its couplings are in canonical order
+/// (grouped by `from` module in module order; other orders come back
+/// regrouped). Validates first: throws INVALID_ARGUMENT for an invalid config.
 std::string WriteConfigXml(const RobotConfig& config);
 
 /// Writes `config` to `path` (canonical form). Throws yamor::Error on I/O

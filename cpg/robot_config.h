@@ -7,6 +7,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace yamor::cpg {
@@ -68,6 +69,12 @@ struct RobotConfig {
   /// Source lines of each module element and coupling, filled by the XML
   /// reader so validation errors can point at them. Not part of equality.
   std::map<ModuleId, SourceLocation> module_locations;
+  /// Source line of each coupling element, keyed by (from, to).
+  std::map<std::pair<ModuleId, ModuleId>, SourceLocation> coupling_locations;
+  /// Source line of each `<bluetooth to="C"/>` element, keyed by child C.
+  std::map<ModuleId, SourceLocation> bluetooth_locations;
+  /// Source line of the `<yamorconfig>` element (where `master` is given).
+  SourceLocation master_location;
   std::string source_file;  ///< File the config was read from, if any.
 
   /// The module with `id`, or nullptr.
@@ -93,6 +100,8 @@ struct RobotConfig {
 /// and in 0..254, finite values, min_angle < max_angle, couplings between
 /// known modules (no self-couplings, no duplicates), and the bluetooth tree
 /// rooted at the master reaching every listed module without cycles.
+/// Also: at least one module, amplitude >= 0, speed >= 0, finite coupling
+/// phase and weight. Thread-safe (reads `config` only).
 void Validate(const RobotConfig& config);
 
 }  // namespace yamor::cpg
