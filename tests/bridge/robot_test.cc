@@ -1,0 +1,331 @@
+#include "bridge/robot.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+
+#include "common/status.h"
+#include "cpg/config_xml.h"
+#include "proto/snp/snp.h"
+
+namespace yamor::bridge {
+namespace {
+
+using snp::Address;
+
+const std::string kSourceDir = YAMOR_SOURCE_DIR;
+
+physics::Morphology SnakeMorphology() {
+  return physics::Morphology::LoadFile(kSourceDir + "/configs/worlds/snake.xml");
+}
+
+cpg::RobotConfig SnakeConfig() {
+  return cpg::LoadConfigFile(kSourceDir + "/configs/robots/snake.xml");
+}
+
+snp::Frame ToModule(int id, const snp::Message& m) {
+  return snp::MakeFrame(Address::Host(), Address::Module(static_cast<uint8_t>(id)), m);
+}
+snp::Frame ToBridge(const snp::Message& m) {
+  return snp::MakeFrame(Address::Host(), Address::Bridge(), m);
+}
+snp::Frame Broadcast(const snp::Message& m) {
+  return snp::MakeFrame(Address::Host(), Address::Broadcast(), m);
+}
+
+// Sends one frame and returns the replies.
+std::vector<snp::Frame> Send(Robot& robot, const snp::Frame& frame) {
+  std::vector<snp::Frame> out;
+  robot.HandleFrame(frame, out);
+  return out;
+}
+
+// Sends one frame that must be answered by exactly one message of type T.
+template <typename T>
+T SendExpect(Robot& robot, const snp::Frame& frame) {
+  auto out = Send(robot, frame);
+  EXPECT_EQ(out.size(), 1u) << snp::MessageTypeName(frame.type);
+  if (out.empty()) return T{};
+  snp::Message message = snp::DecodeMessage(out.back());
+  EXPECT_TRUE(std::holds_alternative<T>(message))
+      << "got " << snp::MessageTypeName(out.back().type);
+  if (!std::holds_alternative<T>(message)) return T{};
+  return std::get<T>(message);
+}
+
+// Links the whole snake chain 0 -> 1 -> ... -> 8.
+void LinkSnake(Robot& robot) {
+  for (int parent = 0; parent < 8; ++parent) {
+    auto ack = SendExpect<snp::ConnectAck>(
+        robot, ToModule(parent, snp::ConnectRequest{.child = static_cast<uint8_t>(parent + 1)}));
+    ASSERT_EQ(ack.status, snp::LinkStatus::kUp) << "link " << parent << "->" << parent + 1;
+  }
+}
+
+void Configure(Robot& robot, const cpg::RobotConfig& config) {
+  for (const snp::Frame& frame : ConfigurationFrames(config)) {
+    for (const snp::Frame& reply : Send(robot, frame)) {
+      snp::Message m = snp::DecodeMessage(reply);
+      if (const auto* ack = std::get_if<snp::Ack>(&m)) {
+        ASSERT_EQ(ack->status, StatusCode::kOk) << snp::MessageTypeName(ack->acked);
+      }
+      if (const auto* ack = std::get_if<snp::ConnectAck>(&m)) {
+        ASSERT_EQ(ack->status, snp::LinkStatus::kUp) << "child " << int(ack->child);
+      }
+    }
+  }
+}
+
+TEST(BridgeRobotTest, OnlyTheMasterIsReachableAtPowerOn) {
+  Robot robot(SnakeMorphology());
+  EXPECT_EQ(robot.master(), 0);  // the central module by default
+  EXPECT_TRUE(robot.Reachable(0));
+  for (int id = 1; id <= 8; ++id) EXPECT_FALSE(robot.Reachable(id)) << id;
+  // A frame for an unlinked module is dropped: the host would time out.
+  EXPECT_TRUE(Send(robot, ToModule(3, snp::Control{.cpg = snp::Tristate::kOn})).empty());
+  EXPECT_EQ(robot.stats().dropped_unreachable, 1u);
+  EXPECT_FALSE(robot.Firmware(3).cpg);
+}
+
+TEST(BridgeRobotTest, BluetoothLinksFollowTheTree) {
+  Robot robot(SnakeMorphology());
+  // Module 1 is not reachable yet, so it cannot open a link for us.
+  EXPECT_TRUE(Send(robot, ToModule(1, snp::ConnectRequest{.child = 2})).empty());
+  auto ack = SendExpect<snp::ConnectAck>(robot, ToModule(0, snp::ConnectRequest{.child = 1}));
+  EXPECT_EQ(ack.child, 1);
+  EXPECT_EQ(ack.status, snp::LinkStatus::kUp);
+  EXPECT_TRUE(robot.Reachable(1));
+  EXPECT_FALSE(robot.Reachable(2));
+  // Idempotent for the same parent; refused for another parent, for the
+  // master itself and for a module that does not exist.
+  EXPECT_EQ(SendExpect<snp::ConnectAck>(robot, ToModule(0, snp::ConnectRequest{.child = 1})).status,
+            snp::LinkStatus::kUp);
+  EXPECT_EQ(SendExpect<snp::ConnectAck>(robot, ToModule(1, snp::ConnectRequest{.child = 0})).status,
+            snp::LinkStatus::kFailed);
+  EXPECT_EQ(SendExpect<snp::ConnectAck>(robot, ToModule(1, snp::ConnectRequest{.child = 42})).status,
+            snp::LinkStatus::kFailed);
+  LinkSnake(robot);
+  EXPECT_EQ(SendExpect<snp::ConnectAck>(robot, ToModule(0, snp::ConnectRequest{.child = 5})).status,
+            snp::LinkStatus::kFailed);
+  for (int id = 0; id <= 8; ++id) EXPECT_TRUE(robot.Reachable(id)) << id;
+  EXPECT_EQ(robot.Firmware(3).links, std::vector<int>{4});
+}
+
+TEST(BridgeRobotTest, ControlFlagsAreTristate) {
+  Robot robot(SnakeMorphology());
+  auto ack = SendExpect<snp::Ack>(
+      robot, ToModule(0, snp::Control{.uart = snp::Tristate::kOn, .cpg = snp::Tristate::kOn,
+                                      .motors = snp::Tristate::kOn}));
+  EXPECT_EQ(ack.acked, snp::MessageType::kControl);
+  EXPECT_EQ(ack.status, StatusCode::kOk);
+  EXPECT_TRUE(robot.Firmware(0).uart && robot.Firmware(0).cpg && robot.Firmware(0).motors);
+  EXPECT_TRUE(robot.world().MotorEnabled(0));
+  SendExpect<snp::Ack>(robot, ToModule(0, snp::Control{.cpg = snp::Tristate::kOff}));
+  EXPECT_TRUE(robot.Firmware(0).uart);
+  EXPECT_FALSE(robot.Firmware(0).cpg);
+  EXPECT_TRUE(robot.Firmware(0).motors);
+  SendExpect<snp::Ack>(robot, ToModule(0, snp::Control{.motors = snp::Tristate::kOff}));
+  EXPECT_FALSE(robot.world().MotorEnabled(0));
+  EXPECT_TRUE(robot.Firmware(0).uart);
+}
+
+TEST(BridgeRobotTest, ParametersOutsideTheFirmwareRangeAreRefused) {
+  Robot robot(SnakeMorphology());
+  auto ack = SendExpect<snp::Ack>(robot, ToModule(0, snp::SetOscillator{.amplitude = -0.5f}));
+  EXPECT_EQ(ack.status, StatusCode::kOutOfRange);
+  ack = SendExpect<snp::Ack>(robot, ToModule(0, snp::SetOscillator{.speed = 100.0f}));
+  EXPECT_EQ(ack.status, StatusCode::kOutOfRange);
+  EXPECT_EQ(robot.Firmware(0).amplitude, 0.0f);
+  EXPECT_EQ(robot.Firmware(0).speed, 0.0f);
+  ack = SendExpect<snp::Ack>(robot, ToModule(0, snp::SetLimits{.min_angle = 0.5f, .max_angle = 0.5f}));
+  EXPECT_EQ(ack.acked, snp::MessageType::kSetLimits);
+  EXPECT_EQ(ack.status, StatusCode::kOutOfRange);
+  ack = SendExpect<snp::Ack>(robot, ToModule(0, snp::SetCoupling{.to = 0, .phase = 1, .weight = 1}));
+  EXPECT_EQ(ack.status, StatusCode::kInvalidArgument);
+
+  ack = SendExpect<snp::Ack>(robot, ToModule(0, snp::SetOscillator{.amplitude = 0.4f, .speed = 0.5f}));
+  EXPECT_EQ(ack.status, StatusCode::kOk);
+  EXPECT_EQ(robot.Firmware(0).amplitude, 0.4f);
+  EXPECT_EQ(robot.Firmware(0).offset, 0.0f);  // absent field left alone
+  EXPECT_EQ(robot.Firmware(0).speed, 0.5f);
+  SendExpect<snp::Ack>(robot, ToModule(0, snp::SetCoupling{.to = 1, .phase = 1.5f, .weight = 1}));
+  SendExpect<snp::Ack>(robot, ToModule(0, snp::SetCoupling{.to = 1, .phase = -1.5f, .weight = 2}));
+  ASSERT_EQ(robot.Firmware(0).couplings.size(), 1u);
+  EXPECT_EQ(robot.Firmware(0).couplings.at(1), (FirmwareCoupling{-1.5f, 2.0f}));
+  SendExpect<snp::Ack>(robot, ToModule(0, snp::ClearCouplings{}));
+  EXPECT_TRUE(robot.Firmware(0).couplings.empty());
+}
+
+TEST(BridgeRobotTest, BroadcastReachesLinkedModulesAndIsNotAnswered) {
+  Robot robot(SnakeMorphology());
+  SendExpect<snp::ConnectAck>(robot, ToModule(0, snp::ConnectRequest{.child = 1}));
+  EXPECT_TRUE(Send(robot, Broadcast(snp::Control{.cpg = snp::Tristate::kOn})).empty());
+  EXPECT_TRUE(robot.Firmware(0).cpg);
+  EXPECT_TRUE(robot.Firmware(1).cpg);
+  EXPECT_FALSE(robot.Firmware(2).cpg);  // not linked: never heard it
+}
+
+TEST(BridgeRobotTest, BridgeCommands) {
+  Robot robot(SnakeMorphology());
+  EXPECT_EQ(SendExpect<snp::SimTime>(robot, ToBridge(snp::GetSimTime{})).seconds, 0.0);
+
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::SetTimer{.timer_id = 7, .delay = 0.05}));
+  auto out = Send(robot, ToBridge(snp::Step{.duration = 0.1}));
+  ASSERT_EQ(out.size(), 2u);  // TimerFired during the step, then StepDone
+  auto fired = std::get<snp::TimerFired>(snp::DecodeMessage(out[0]));
+  EXPECT_EQ(fired.timer_id, 7);
+  EXPECT_NEAR(fired.time, 0.05, 1e-9);
+  auto done = std::get<snp::StepDone>(snp::DecodeMessage(out[1]));
+  EXPECT_NEAR(done.time, 0.1, 1e-9);
+  EXPECT_NEAR(robot.Time(), 0.1, 1e-9);
+
+  auto error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::Step{.duration = -1.0}));
+  EXPECT_EQ(error.acked, snp::MessageType::kStep);
+  EXPECT_EQ(error.code, StatusCode::kOutOfRange);
+  EXPECT_NE(error.text.find("-1"), std::string::npos) << error.text;
+
+  auto pose = SendExpect<snp::RobotPosition>(robot, ToBridge(snp::GetRobotPosition{}));
+  const Eigen::Vector3d p = robot.world().CentralPosition();
+  EXPECT_EQ(pose.position[0], p.x());
+  EXPECT_EQ(pose.position[2], p.z());
+  EXPECT_GT(pose.position[2], 0.0);
+
+  error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::SetMasterNode{.module = 99}));
+  EXPECT_EQ(error.code, StatusCode::kNotFound);
+  SendExpect<snp::ConnectAck>(robot, ToModule(0, snp::ConnectRequest{.child = 1}));
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::SetMasterNode{.module = 4}));
+  EXPECT_EQ(robot.master(), 4);
+  EXPECT_FALSE(robot.Reachable(1));  // the old network is gone
+  EXPECT_TRUE(robot.Reachable(4));
+
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::ResetSimulation{}));
+  EXPECT_EQ(robot.Time(), 0.0);
+}
+
+TEST(BridgeRobotTest, BytesInBytesOut) {
+  Robot robot(SnakeMorphology());
+  std::vector<uint8_t> in = {0x00, 0xA5, 0x13, 0x37};  // garbage, incl. a start byte
+  snp::AppendEncodedFrame(ToBridge(snp::GetSimTime{}), in);
+  snp::AppendEncodedFrame(ToModule(0, snp::ReadServoAngle{}), in);
+  std::vector<uint8_t> out;
+  // Split the stream mid-frame: the robot must reassemble it.
+  const std::size_t half = in.size() / 2 + 3;
+  robot.HandleBytes(std::span(in).first(half), out);
+  robot.HandleBytes(std::span(in).subspan(half), out);
+  snp::FrameDecoder decoder;
+  auto events = decoder.Feed(out);
+  ASSERT_EQ(events.size(), 2u);
+  auto first = snp::DecodeMessage(std::get<snp::DecodedFrame>(events[0]).frame);
+  auto second = std::get<snp::DecodedFrame>(events[1]).frame;
+  EXPECT_TRUE(std::holds_alternative<snp::SimTime>(first));
+  EXPECT_EQ(second.source, Address::Module(0));
+  EXPECT_TRUE(std::holds_alternative<snp::ServoAngle>(snp::DecodeMessage(second)));
+  EXPECT_GE(robot.stats().decode_errors, 1u);
+}
+
+TEST(BridgeRobotTest, ConfiguredSnakeOscillatesWithinItsLimits) {
+  Robot robot(SnakeMorphology());
+  cpg::RobotConfig config = SnakeConfig();
+  Configure(robot, config);
+  for (const auto& m : config.modules) {
+    const ModuleFirmware& fw = robot.Firmware(m.id);
+    EXPECT_EQ(fw.amplitude, static_cast<float>(m.amplitude));
+    EXPECT_TRUE(fw.cpg && fw.motors && fw.uart);
+  }
+  std::vector<snp::Frame> events;
+  double min_angle = 0, max_angle = 0;
+  for (int i = 0; i < 3000; ++i) {
+    robot.StepOnce(events);
+    const double a = robot.world().ServoTarget(4);
+    min_angle = std::min(min_angle, a);
+    max_angle = std::max(max_angle, a);
+  }
+  // Amplitude 0.6 after the critically damped ramp; targets respect limits.
+  EXPECT_GT(max_angle, 0.4);
+  EXPECT_LT(min_angle, -0.4);
+  EXPECT_LE(max_angle, robot.Firmware(4).max_angle + 1e-6);
+  EXPECT_GE(min_angle, robot.Firmware(4).min_angle - 1e-6);
+  // The servo follows its target.
+  const double angle = SendExpect<snp::ServoAngle>(robot, ToModule(4, snp::ReadServoAngle{})).angle;
+  EXPECT_NEAR(angle, robot.world().ServoAngle(4), 1e-6);
+}
+
+TEST(BridgeRobotTest, ModuleWithCpgOffHoldsItsTarget) {
+  Robot robot(SnakeMorphology());
+  Configure(robot, SnakeConfig());
+  std::vector<snp::Frame> events;
+  robot.Advance(1.0, events);
+  SendExpect<snp::Ack>(robot, ToModule(3, snp::Control{.cpg = snp::Tristate::kOff}));
+  const double held = robot.world().ServoTarget(3);
+  const double other = robot.world().ServoTarget(5);
+  robot.Advance(1.0, events);
+  EXPECT_EQ(robot.world().ServoTarget(3), held);
+  EXPECT_NE(robot.world().ServoTarget(5), other);
+}
+
+TEST(BridgeRobotTest, DefectModuleStopsOscillating) {
+  Robot robot(SnakeMorphology());
+  Configure(robot, SnakeConfig());
+  std::vector<snp::Frame> events;
+  robot.Advance(1.0, events);
+  robot.SetModuleDefect(6, true);
+  EXPECT_TRUE(robot.Firmware(6).oscillator_dead);
+  const double held = robot.world().ServoTarget(6);
+  robot.Advance(0.5, events);
+  EXPECT_EQ(robot.world().ServoTarget(6), held);
+  EXPECT_TRUE(robot.world().ModuleDefective(6));
+  robot.Reset();  // defects are hardware: they survive a power cycle
+  EXPECT_TRUE(robot.Firmware(6).oscillator_dead);
+}
+
+TEST(BridgeRobotTest, AccelerometerNeedsTheUart) {
+  Robot robot(SnakeMorphology());
+  auto ack = SendExpect<snp::Ack>(robot, ToModule(0, snp::ReadAccelerometer{.sample_count = 4}));
+  EXPECT_EQ(ack.status, StatusCode::kFailedPrecondition);
+  SendExpect<snp::Ack>(robot, ToModule(0, snp::Control{.uart = snp::Tristate::kOn}));
+  std::vector<snp::Frame> events;
+  robot.Advance(0.2, events);  // 20 samples at 100 Hz
+  auto reply = SendExpect<snp::Accelerometer>(robot, ToModule(0, snp::ReadAccelerometer{.sample_count = 4}));
+  ASSERT_EQ(reply.samples.size(), 4u);
+  for (const auto& s : reply.samples) {
+    EXPECT_GE(s.z, 0);
+    EXPECT_LE(s.z, 1023);
+  }
+}
+
+TEST(BridgeRobotTest, SameSeedSameTrajectory) {
+  auto run = [] {
+    Robot robot(SnakeMorphology());
+    Configure(robot, SnakeConfig());
+    std::vector<snp::Frame> events;
+    robot.Advance(3.0, events);
+    return robot.world().CentralPosition();
+  };
+  const Eigen::Vector3d a = run();
+  const Eigen::Vector3d b = run();
+  EXPECT_EQ(a.x(), b.x());
+  EXPECT_EQ(a.y(), b.y());
+  EXPECT_EQ(a.z(), b.z());
+}
+
+TEST(BridgeRobotTest, ConfigurationFramesLinkParentsFirst) {
+  cpg::RobotConfig config = cpg::LoadConfigFile(kSourceDir + "/configs/robots/quadruped.xml");
+  auto frames = ConfigurationFrames(config);
+  std::set<int> linked = {config.master_id};
+  std::size_t connects = 0;
+  for (const snp::Frame& f : frames) {
+    snp::Message m = snp::DecodeMessage(f);
+    if (const auto* c = std::get_if<snp::ConnectRequest>(&m)) {
+      EXPECT_TRUE(linked.count(f.destination.id)) << "parent " << int(f.destination.id);
+      linked.insert(c->child);
+      ++connects;
+    }
+  }
+  EXPECT_EQ(connects, config.bluetooth_parent.size());
+  EXPECT_EQ(linked.size(), config.modules.size());
+}
+
+}  // namespace
+}  // namespace yamor::bridge
