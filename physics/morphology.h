@@ -1,0 +1,96 @@
+// The physical graph of a robot: which modules exist and which connector of
+// one is screwed onto which connector of another, at which angle. Immutable
+// and validated on construction; module poses are computed from connector
+// frames with every servo at 0 (thesis 5.4.2). The XML format is documented in
+// docs/module.md.
+#pragma once
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "physics/module.h"
+
+namespace yamor::physics {
+
+/// One module of a morphology.
+struct MorphologyModule {
+  int id = 0;         ///< The module's real id (matches the robot configuration).
+  bool free = false;  ///< A spare module, not part of the robot until connected.
+  int line = 0;       ///< Source line (0 when built in code).
+};
+
+/// One connection: connector `from_connector` of module `from` is mated to
+/// `to_connector` of module `to`, the norths `angle_steps`·15° apart.
+struct MorphologyConnection {
+  int from = 0;                                    ///< Source module id (idfrom).
+  ConnectorId from_connector = ConnectorId::kFront;  ///< connfrom.
+  int to = 0;                                      ///< Destination module id (idto).
+  ConnectorId to_connector = ConnectorId::kRear;   ///< connto.
+  int angle_steps = 0;                             ///< Connection angle / 15°, in [0, 24).
+  int line = 0;                                    ///< Source line (0 when built in code).
+};
+
+/// A validated morphology with the pose of every connected module.
+/// Thread-safety: immutable after construction; safe to share between threads.
+class Morphology {
+ public:
+  /// Loads and validates a morphology file. Errors: kNotFound when the file
+  /// cannot be read, kInvalidArgument (message with file:line) when invalid.
+  static Morphology LoadFile(const std::filesystem::path& path);
+
+  /// Parses and validates XML text; `source` names it in error messages.
+  static Morphology Parse(std::string_view xml, std::string_view source);
+
+  /// Validates a morphology built in code (same rules as the XML path).
+  /// `orientation_degrees` is roll, pitch, yaw of the central module.
+  static Morphology Build(int central, std::vector<MorphologyModule> modules,
+                          std::vector<MorphologyConnection> connections,
+                          const Eigen::Vector3d& orientation_degrees = Eigen::Vector3d::Zero(),
+                          std::string source = "<built>");
+
+  /// Id of the central (tracked, LED-carrying) module.
+  int central() const { return central_; }
+  /// Where the morphology came from (file path or a given name).
+  const std::string& source() const { return source_; }
+  /// Modules in declaration order.
+  const std::vector<MorphologyModule>& modules() const { return modules_; }
+  /// Connections in declaration order.
+  const std::vector<MorphologyConnection>& connections() const { return connections_; }
+  /// Roll, pitch, yaw (degrees) of the central module in the robot frame.
+  const Eigen::Vector3d& orientation_degrees() const { return orientation_degrees_; }
+
+  /// True when a module with this id exists.
+  bool Contains(int id) const { return index_.count(id) != 0; }
+  /// The module with this id; kNotFound when absent.
+  const MorphologyModule& Module(int id) const;
+  /// Body pose of a connected module in the robot frame (central module at
+  /// the origin, servos at 0); kNotFound for an unknown id, kFailedPrecondition
+  /// for a free module.
+  const Eigen::Isometry3d& BodyPose(int id) const;
+
+  /// Canonical XML of this morphology.
+  std::string ToXml() const;
+
+ private:
+  Morphology() = default;
+  void Validate();
+  std::string Where(int line) const;
+
+  int central_ = 0;
+  std::string source_;
+  std::vector<MorphologyModule> modules_;
+  std::vector<MorphologyConnection> connections_;
+  Eigen::Vector3d orientation_degrees_ = Eigen::Vector3d::Zero();
+  std::map<int, size_t> index_;                  // id -> modules_ index
+  std::map<int, Eigen::Isometry3d> body_poses_;  // connected modules only
+};
+
+/// Rotation of roll, pitch, yaw (degrees) about fixed x, y, z axes: Rz·Ry·Rx.
+Eigen::Matrix3d RotationFromRollPitchYaw(const Eigen::Vector3d& degrees);
+
+}  // namespace yamor::physics

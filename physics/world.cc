@@ -1,0 +1,696 @@
+#include "physics/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <cstring>
+#include <limits>
+#include <numeric>
+
+#include <ode/ode.h>
+
+#include "common/log.h"
+#include "common/status.h"
+#include "physics/box_overlap.h"
+#include "physics/ode_runtime.h"
+#include "physics/placement.h"
+
+namespace yamor::physics {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kMaxContactsPerPair = 4;
+// Global joint softness: a little CFM keeps kinematic loops (the wheel), whose
+// hinge constraints are partly redundant, well conditioned.
+constexpr double kJointErp = 0.2;
+constexpr double kJointCfm = 1e-6;
+constexpr double kMaxPosition = 1e4;  // m: anything farther away has blown up
+
+Eigen::Matrix3d ToEigen(const dReal* r) {
+  Eigen::Matrix3d m;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) m(i, j) = r[i * 4 + j];
+  }
+  return m;
+}
+
+void ToOde(const Eigen::Matrix3d& m, dMatrix3 r) {
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) r[i * 4 + j] = m(i, j);
+    r[i * 4 + 3] = 0;
+  }
+}
+
+Eigen::Vector3d ToEigen3(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
+
+// Union-find over part indices.
+struct DisjointSets {
+  explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  size_t Find(size_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  }
+  void Union(size_t a, size_t b) {
+    a = Find(a);
+    b = Find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // smallest index is the root
+  }
+  std::vector<size_t> parent;
+};
+
+void CheckFinite(double value, const char* what) {
+  if (!std::isfinite(value)) {
+    throw Error(StatusCode::kInvalidArgument, std::string(what) + " must be finite, got " +
+                                                  std::to_string(value));
+  }
+}
+
+void CheckOptions(const WorldOptions& o) {
+  auto positive = [](double value, const char* what) {
+    CheckFinite(value, what);
+    if (value <= 0) {
+      throw Error(StatusCode::kInvalidArgument,
+                  std::string(what) + " must be > 0, got " + std::to_string(value));
+    }
+  };
+  auto non_negative = [](double value, const char* what) {
+    CheckFinite(value, what);
+    if (value < 0) {
+      throw Error(StatusCode::kInvalidArgument,
+                  std::string(what) + " must be >= 0, got " + std::to_string(value));
+    }
+  };
+  positive(o.time_step, "time_step");
+  if (o.time_step > 0.05) {
+    throw Error(StatusCode::kOutOfRange,
+                "time_step " + std::to_string(o.time_step) + " s is above 0.05 s");
+  }
+  non_negative(o.gravity, "gravity");
+  non_negative(o.ground_friction, "ground_friction");
+  non_negative(o.module_friction, "module_friction");
+  non_negative(o.slope, "slope");
+  CheckFinite(o.slope_direction, "slope_direction");
+  if (o.slope >= kPi / 2) {
+    throw Error(StatusCode::kOutOfRange, "slope must be below pi/2 rad");
+  }
+  positive(o.contact_stiffness, "contact_stiffness");
+  non_negative(o.contact_damping, "contact_damping");
+  non_negative(o.drop_gap, "drop_gap");
+  positive(o.max_linear_speed, "max_linear_speed");
+  positive(o.max_angular_speed, "max_angular_speed");
+  positive(o.servo.stall_torque, "servo.stall_torque");
+  positive(o.servo.max_speed, "servo.max_speed");
+  positive(o.servo.gain, "servo.gain");
+  non_negative(o.servo.limp_friction, "servo.limp_friction");
+  positive(o.servo.lock_torque, "servo.lock_torque");
+  positive(o.servo.lock_gain, "servo.lock_gain");
+  positive(o.accelerometer.count_size, "accelerometer.count_size");
+}
+
+Eigen::Vector3d GravityVector(double g, double slope, double direction) {
+  return g * Eigen::Vector3d(std::sin(slope) * std::cos(direction),
+                             std::sin(slope) * std::sin(direction), -std::cos(slope));
+}
+
+}  // namespace
+
+struct World::Impl {
+  struct ModuleState {
+    int id = 0;
+    bool connected = false;
+    int group[2] = {-1, -1};     // rigid group of the body and the handle part
+    Eigen::Isometry3d offset[2] = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
+    dJointID hinge = nullptr;    // null when free or when body and handle are one rigid group
+    double hinge_offset = 0;     // servo angle = hinge angle + offset
+    double target = 0;
+    bool motor_on = true;
+    MotorFault fault = MotorFault::kNone;
+    double stuck_angle = 0;
+    bool defect = false;
+    Eigen::Vector3d sensor_velocity_before_step = Eigen::Vector3d::Zero();
+  };
+  struct Group {
+    dBodyID body = nullptr;
+    double mass = 0;
+    std::vector<std::pair<size_t, Part>> parts;  // (module index, part)
+  };
+  // Where a part is and how it moves, used to (re)build bodies.
+  struct PartMotion {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    Eigen::Vector3d linear = Eigen::Vector3d::Zero();   // velocity of the part frame origin
+    Eigen::Vector3d angular = Eigen::Vector3d::Zero();
+  };
+
+  Morphology morphology;
+  WorldOptions options;
+
+  dWorldID world = nullptr;
+  dSpaceID space = nullptr;
+  dJointGroupID contacts = nullptr;
+  dGeomID ground = nullptr;
+  std::vector<ModuleState> modules;  // ascending id
+  std::map<int, size_t> index;
+  std::vector<MorphologyConnection> connections;  // current physical links
+  std::vector<Group> groups;
+  double ground_friction = 0;
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();
+  double contact_erp = 0;
+  double contact_cfm = 0;
+  std::uint64_t steps = 0;
+  DivergenceInfo divergence;
+
+  Impl(Morphology m, WorldOptions o) : morphology(std::move(m)), options(std::move(o)) {
+    CheckOptions(options);
+    const double h = options.time_step;
+    const double denominator = h * options.contact_stiffness + options.contact_damping;
+    contact_erp = h * options.contact_stiffness / denominator;
+    contact_cfm = 1.0 / denominator;
+    BuildInitial();
+  }
+
+  ~Impl() { Destroy(); }
+
+  void Destroy() {
+    if (world == nullptr) return;
+    EnsureOdeForThisThread();
+    dJointGroupDestroy(contacts);
+    dSpaceDestroy(space);  // destroys the geoms (cleanup mode is on)
+    dWorldDestroy(world);  // destroys bodies and joints
+    world = nullptr;
+    space = nullptr;
+    contacts = nullptr;
+    ground = nullptr;
+    groups.clear();
+    for (ModuleState& m : modules) {
+      m.hinge = nullptr;
+      m.group[0] = m.group[1] = -1;
+    }
+  }
+
+  ModuleState& State(int id) {
+    const auto it = index.find(id);
+    if (it == index.end()) {
+      throw Error(StatusCode::kNotFound, "no module " + std::to_string(id) + " in the world");
+    }
+    return modules[it->second];
+  }
+  const ModuleState& State(int id) const { return const_cast<Impl*>(this)->State(id); }
+
+  const ModuleState& ConnectedState(int id) const {
+    const ModuleState& m = State(id);
+    if (!m.connected) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  "module " + std::to_string(id) + " is free (not part of the robot)");
+    }
+    return m;
+  }
+
+  // Fresh state from the morphology: every module at its placed pose, at rest.
+  void BuildInitial() {
+    EnsureOdeForThisThread();
+    modules.clear();
+    index.clear();
+    std::vector<int> ids;
+    for (const MorphologyModule& m : morphology.modules()) ids.push_back(m.id);
+    std::sort(ids.begin(), ids.end());
+    for (int id : ids) {
+      index[id] = modules.size();
+      ModuleState state;
+      state.id = id;
+      state.connected = !morphology.Module(id).free;
+      modules.push_back(state);
+    }
+    connections = morphology.connections();
+    ground_friction = options.ground_friction;
+    gravity = GravityVector(options.gravity, options.slope, options.slope_direction);
+    steps = 0;
+    divergence.diverged = false;
+    divergence.step = 0;
+    divergence.module_id = -1;
+    divergence.reason.clear();
+
+    // Robot frame -> world: central above the origin, lowest point at drop_gap.
+    std::vector<OrientedBox> boxes;
+    for (const ModuleState& m : modules) {
+      if (!m.connected) continue;
+      const auto module_boxes = ModuleWorldBoxes(morphology.BodyPose(m.id), 0.0);
+      boxes.insert(boxes.end(), module_boxes.begin(), module_boxes.end());
+    }
+    const Eigen::Vector3d central = morphology.BodyPose(morphology.central()).translation();
+    const Eigen::Translation3d shift(-central.x(), -central.y(),
+                                     options.drop_gap - physics::LowestPoint(boxes));
+    std::vector<std::array<PartMotion, 2>> motion(modules.size());
+    std::vector<double> servo(modules.size(), 0.0);
+    for (size_t i = 0; i < modules.size(); ++i) {
+      if (!modules[i].connected) continue;
+      const Eigen::Isometry3d body = shift * morphology.BodyPose(modules[i].id);
+      motion[i][0].pose = body;
+      motion[i][1].pose = PartPose(body, Part::kHandle, 0.0);
+    }
+    Build(motion, servo);
+  }
+
+  // Creates the ODE world with the current connection graph; every connected
+  // module's parts are at `motion`, their hinges at `servo`.
+  void Build(const std::vector<std::array<PartMotion, 2>>& motion,
+             const std::vector<double>& servo) {
+    EnsureOdeForThisThread();
+    world = dWorldCreate();
+    dWorldSetGravity(world, gravity.x(), gravity.y(), gravity.z());
+    dWorldSetERP(world, kJointErp);
+    dWorldSetCFM(world, kJointCfm);
+    dWorldSetAutoDisableFlag(world, 0);
+    space = dHashSpaceCreate(nullptr);
+    dHashSpaceSetLevels(space, -5, 1);
+    contacts = dJointGroupCreate(0);
+    ground = dCreatePlane(space, 0, 0, 1, 0);
+    dGeomSetData(ground, nullptr);
+
+    // Rigid groups: union-find over parts, merged through every connection.
+    DisjointSets sets(modules.size() * 2);
+    auto part_index = [&](int id, ConnectorId connector) {
+      return index.at(id) * 2 + static_cast<size_t>(ConnectorFrameOf(connector).part);
+    };
+    for (const MorphologyConnection& c : connections) {
+      sets.Union(part_index(c.from, c.from_connector), part_index(c.to, c.to_connector));
+    }
+    std::map<size_t, int> group_of_root;
+    groups.clear();
+    for (size_t i = 0; i < modules.size(); ++i) {
+      if (!modules[i].connected) continue;
+      for (int p = 0; p < 2; ++p) {
+        const size_t root = sets.Find(i * 2 + static_cast<size_t>(p));
+        auto [it, inserted] = group_of_root.emplace(root, static_cast<int>(groups.size()));
+        if (inserted) groups.emplace_back();
+        groups[static_cast<size_t>(it->second)].parts.emplace_back(i, static_cast<Part>(p));
+        modules[i].group[p] = it->second;
+      }
+    }
+
+    for (size_t g = 0; g < groups.size(); ++g) {
+      Group& group = groups[g];
+      dMass total;
+      dMassSetZero(&total);
+      for (const auto& [mi, part] : group.parts) {
+        const Eigen::Isometry3d& part_pose = motion[mi][static_cast<size_t>(part)].pose;
+        for (const ModuleBox& box : ModuleBoxes()) {
+          if (box.part != part) continue;
+          dMass mass;
+          dMassSetBoxTotal(&mass, box.mass, box.size.x(), box.size.y(), box.size.z());
+          dMatrix3 rotation;
+          ToOde(part_pose.linear(), rotation);
+          dMassRotate(&mass, rotation);
+          const Eigen::Vector3d centre = part_pose * box.center;
+          dMassTranslate(&mass, centre.x(), centre.y(), centre.z());
+          dMassAdd(&total, &mass);
+        }
+      }
+      const Eigen::Vector3d com(total.c[0], total.c[1], total.c[2]);
+      dMassTranslate(&total, -com.x(), -com.y(), -com.z());
+      group.mass = total.mass;
+      group.body = dBodyCreate(world);
+      dBodySetMass(group.body, &total);
+      dBodySetPosition(group.body, com.x(), com.y(), com.z());
+      for (const auto& [mi, part] : group.parts) {
+        const PartMotion& pm = motion[mi][static_cast<size_t>(part)];
+        Eigen::Isometry3d body_pose = Eigen::Isometry3d::Identity();
+        body_pose.translation() = com;
+        modules[mi].offset[static_cast<int>(part)] = body_pose.inverse() * pm.pose;
+        for (const ModuleBox& box : ModuleBoxes()) {
+          if (box.part != part) continue;
+          dGeomID geom = dCreateBox(space, box.size.x(), box.size.y(), box.size.z());
+          dGeomSetBody(geom, group.body);
+          const Eigen::Vector3d centre = pm.pose * box.center;
+          dGeomSetOffsetWorldPosition(geom, centre.x(), centre.y(), centre.z());
+          dMatrix3 rotation;
+          ToOde(pm.pose.linear(), rotation);
+          dGeomSetOffsetWorldRotation(geom, rotation);
+          dGeomSetData(geom, reinterpret_cast<void*>(
+                                 static_cast<uintptr_t>(mi * 2 + static_cast<size_t>(part) + 1)));
+        }
+      }
+      // Velocity of the group from its first part (all parts move rigidly).
+      const auto& [mi0, part0] = group.parts.front();
+      const PartMotion& first = motion[mi0][static_cast<size_t>(part0)];
+      const Eigen::Vector3d linear =
+          first.linear + first.angular.cross(com - first.pose.translation());
+      dBodySetLinearVel(group.body, linear.x(), linear.y(), linear.z());
+      dBodySetAngularVel(group.body, first.angular.x(), first.angular.y(), first.angular.z());
+    }
+
+    for (size_t i = 0; i < modules.size(); ++i) {
+      ModuleState& m = modules[i];
+      m.hinge = nullptr;
+      m.hinge_offset = servo[i];
+      if (!m.connected) continue;
+      if (m.group[0] == m.group[1]) {
+        Log().warn("module {}: body and handle are rigidly connected; its servo cannot move", m.id);
+        continue;
+      }
+      const Eigen::Isometry3d& body = motion[i][0].pose;
+      const Eigen::Vector3d anchor = body * HingePivot();
+      // ODE measures the angle of body1 relative to body2 about the axis; with
+      // body1 = body and the axis reversed, it is the handle's angle relative
+      // to the body about HingeAxis(), as HandleInBody() defines it.
+      const Eigen::Vector3d axis = -(body.linear() * HingeAxis());
+      m.hinge = dJointCreateHinge(world, nullptr);
+      dJointAttach(m.hinge, groups[static_cast<size_t>(m.group[0])].body,
+                   groups[static_cast<size_t>(m.group[1])].body);
+      dJointSetHingeAnchor(m.hinge, anchor.x(), anchor.y(), anchor.z());
+      dJointSetHingeAxis(m.hinge, axis.x(), axis.y(), axis.z());
+      dJointSetHingeParam(m.hinge, dParamLoStop, -module::kServoLimit - m.hinge_offset);
+      dJointSetHingeParam(m.hinge, dParamHiStop, module::kServoLimit - m.hinge_offset);
+      dJointSetHingeParam(m.hinge, dParamFMax, 0);
+    }
+    RecordSensorVelocities();
+  }
+
+  Eigen::Isometry3d BodyPoseOfGroup(int g) const {
+    const dBodyID body = groups[static_cast<size_t>(g)].body;
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = ToEigen(dBodyGetRotation(body));
+    pose.translation() = ToEigen3(dBodyGetPosition(body));
+    return pose;
+  }
+
+  Eigen::Isometry3d PartWorldPose(const ModuleState& m, Part part) const {
+    const int p = static_cast<int>(part);
+    return BodyPoseOfGroup(m.group[p]) * m.offset[p];
+  }
+
+  double ServoAngleOf(const ModuleState& m) const {
+    if (m.hinge == nullptr) return m.connected ? m.hinge_offset : 0.0;
+    return dJointGetHingeAngle(m.hinge) + m.hinge_offset;
+  }
+
+  Eigen::Vector3d SensorVelocity(const ModuleState& m) const {
+    const Eigen::Vector3d point = PartWorldPose(m, Part::kBody) * module::kSensorPosition;
+    dVector3 velocity;
+    dBodyGetPointVel(groups[static_cast<size_t>(m.group[0])].body, point.x(), point.y(), point.z(),
+                     velocity);
+    return ToEigen3(velocity);
+  }
+
+  void RecordSensorVelocities() {
+    for (ModuleState& m : modules) {
+      if (m.connected) m.sensor_velocity_before_step = SensorVelocity(m);
+    }
+  }
+
+  void ApplyServos() {
+    const ServoSpec& s = options.servo;
+    for (ModuleState& m : modules) {
+      if (m.hinge == nullptr) continue;
+      const double angle = ServoAngleOf(m);
+      double velocity = 0;
+      double torque = s.limp_friction;
+      if (m.defect || !m.motor_on || m.fault == MotorFault::kLimp) {
+        // Unpowered: only the gearbox friction resists.
+      } else if (m.fault == MotorFault::kStuck) {
+        velocity = s.lock_gain * (m.stuck_angle - angle);
+        torque = s.lock_torque;
+      } else {
+        velocity = std::clamp(s.gain * (m.target - angle), -s.max_speed, s.max_speed);
+        torque = s.stall_torque;
+      }
+      dJointSetHingeParam(m.hinge, dParamVel, velocity);
+      dJointSetHingeParam(m.hinge, dParamFMax, torque);
+    }
+  }
+
+  static void NearCallback(void* data, dGeomID a, dGeomID b) {
+    auto* self = static_cast<Impl*>(data);
+    const auto tag_a = reinterpret_cast<uintptr_t>(dGeomGetData(a));
+    const auto tag_b = reinterpret_cast<uintptr_t>(dGeomGetData(b));
+    // A module's handle turns about its own body: never collide the two.
+    if (tag_a != 0 && tag_b != 0 && (tag_a - 1) / 2 == (tag_b - 1) / 2) return;
+    dContactGeom found[kMaxContactsPerPair];
+    const int count = dCollide(a, b, kMaxContactsPerPair, found, sizeof(dContactGeom));
+    const bool with_ground = tag_a == 0 || tag_b == 0;
+    for (int i = 0; i < count; ++i) {
+      dContact contact;
+      std::memset(&contact, 0, sizeof(contact));
+      contact.geom = found[i];
+      contact.surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
+      contact.surface.mu = with_ground ? self->ground_friction : self->options.module_friction;
+      contact.surface.soft_erp = self->contact_erp;
+      contact.surface.soft_cfm = self->contact_cfm;
+      dJointID joint = dJointCreateContact(self->world, self->contacts, &contact);
+      dJointAttach(joint, dGeomGetBody(a), dGeomGetBody(b));
+    }
+  }
+
+  void MarkDiverged(int module_id, const std::string& reason) {
+    divergence.diverged = true;
+    ++divergence.count;
+    divergence.step = steps;
+    divergence.module_id = module_id;
+    divergence.reason = reason;
+    Log().warn("world diverged at step {} (module {}): {}", steps, module_id, reason);
+  }
+
+  // The module whose body box belongs to the group (a group holds at most a
+  // few handles besides), else the module of its first part.
+  int RepresentativeModule(const Group& group) const {
+    for (const auto& [mi, part] : group.parts) {
+      if (part == Part::kBody) return modules[mi].id;
+    }
+    return modules[group.parts.front().first].id;
+  }
+
+  void CheckDivergence() {
+    for (const Group& group : groups) {
+      const Eigen::Vector3d p = ToEigen3(dBodyGetPosition(group.body));
+      const Eigen::Vector3d v = ToEigen3(dBodyGetLinearVel(group.body));
+      const Eigen::Vector3d w = ToEigen3(dBodyGetAngularVel(group.body));
+      const dReal* q = dBodyGetQuaternion(group.body);
+      const bool finite = p.allFinite() && v.allFinite() && w.allFinite() &&
+                          std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]) &&
+                          std::isfinite(q[3]);
+      std::string reason;
+      if (!finite) {
+        reason = "non-finite body state";
+      } else if (v.norm() > options.max_linear_speed) {
+        reason = "linear speed " + std::to_string(v.norm()) + " m/s";
+      } else if (w.norm() > options.max_angular_speed) {
+        reason = "angular speed " + std::to_string(w.norm()) + " rad/s";
+      } else if (p.cwiseAbs().maxCoeff() > kMaxPosition) {
+        reason = "body beyond " + std::to_string(kMaxPosition) + " m";
+      }
+      if (!reason.empty()) {
+        MarkDiverged(RepresentativeModule(group), reason);
+        return;
+      }
+    }
+  }
+
+  void Step() {
+    EnsureOdeForThisThread();
+    if (divergence.diverged) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  "world diverged at step " + std::to_string(divergence.step) + " (" +
+                      divergence.reason + "); Reset() it first");
+    }
+    ApplyServos();
+    RecordSensorVelocities();
+    try {
+      dSpaceCollide(space, this, &NearCallback);
+      dWorldStep(world, options.time_step);
+    } catch (const OdeFailure& failure) {
+      dJointGroupEmpty(contacts);
+      ++steps;
+      MarkDiverged(-1, failure.what());
+      return;
+    }
+    dJointGroupEmpty(contacts);
+    ++steps;
+    CheckDivergence();
+  }
+
+  double LowestPoint() const {
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const Group& group : groups) {
+      for (dGeomID geom = dBodyGetFirstGeom(group.body); geom != nullptr;
+           geom = dBodyGetNextGeom(geom)) {
+        dVector3 lengths;
+        dGeomBoxGetLengths(geom, lengths);
+        OrientedBox box;
+        box.pose = Eigen::Isometry3d::Identity();
+        box.pose.linear() = ToEigen(dGeomGetRotation(geom));
+        box.pose.translation() = ToEigen3(dGeomGetPosition(geom));
+        box.half_size = ToEigen3(lengths) / 2;
+        lowest = std::min(lowest, physics::LowestPoint({box}));
+      }
+    }
+    return lowest;
+  }
+};
+
+World::World(Morphology morphology, WorldOptions options)
+    : impl_(std::make_unique<Impl>(std::move(morphology), std::move(options))) {}
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+const Morphology& World::morphology() const { return impl_->morphology; }
+const WorldOptions& World::options() const { return impl_->options; }
+
+void World::Step() { impl_->Step(); }
+
+void World::Step(int count) {
+  for (int i = 0; i < count && !impl_->divergence.diverged; ++i) impl_->Step();
+}
+
+double World::Time() const { return static_cast<double>(impl_->steps) * impl_->options.time_step; }
+std::uint64_t World::StepCount() const { return impl_->steps; }
+
+void World::Reset() {
+  impl_->Destroy();
+  impl_->BuildInitial();
+}
+
+std::vector<int> World::ModuleIds() const {
+  std::vector<int> ids;
+  for (const auto& m : impl_->modules) ids.push_back(m.id);
+  return ids;
+}
+
+bool World::IsConnected(int id) const { return impl_->State(id).connected; }
+int World::CentralModule() const { return impl_->morphology.central(); }
+
+Eigen::Vector3d World::CentralPosition() const { return ModulePose(CentralModule()).translation(); }
+
+Eigen::Quaterniond World::CentralOrientation() const {
+  return Eigen::Quaterniond(ModulePose(CentralModule()).linear());
+}
+
+Eigen::Isometry3d World::ModulePose(int id) const {
+  return impl_->PartWorldPose(impl_->ConnectedState(id), Part::kBody);
+}
+
+Eigen::Isometry3d World::HandlePose(int id) const {
+  return impl_->PartWorldPose(impl_->ConnectedState(id), Part::kHandle);
+}
+
+void World::SetServoTarget(int id, double angle) {
+  Impl::ModuleState& m = impl_->State(id);
+  if (!std::isfinite(angle)) {
+    throw Error(StatusCode::kInvalidArgument,
+                "servo target of module " + std::to_string(id) + " must be finite, got " +
+                    std::to_string(angle));
+  }
+  m.target = std::clamp(angle, -module::kServoLimit, module::kServoLimit);
+}
+
+double World::ServoTarget(int id) const { return impl_->State(id).target; }
+
+double World::ServoAngle(int id) const {
+  EnsureOdeForThisThread();
+  return impl_->ServoAngleOf(impl_->State(id));
+}
+
+void World::SetMotorEnabled(int id, bool enabled) { impl_->State(id).motor_on = enabled; }
+bool World::MotorEnabled(int id) const { return impl_->State(id).motor_on; }
+
+void World::SetMotorFault(int id, MotorFault fault) {
+  EnsureOdeForThisThread();
+  Impl::ModuleState& m = impl_->State(id);
+  m.fault = fault;
+  if (fault == MotorFault::kStuck) m.stuck_angle = impl_->ServoAngleOf(m);
+}
+
+MotorFault World::GetMotorFault(int id) const { return impl_->State(id).fault; }
+
+void World::SetModuleDefect(int id, bool defective) { impl_->State(id).defect = defective; }
+bool World::ModuleDefective(int id) const { return impl_->State(id).defect; }
+
+void World::SetGroundFriction(double mu) {
+  if (!std::isfinite(mu) || mu < 0) {
+    throw Error(StatusCode::kInvalidArgument,
+                "ground friction must be finite and >= 0, got " + std::to_string(mu));
+  }
+  impl_->ground_friction = mu;
+}
+
+double World::GroundFriction() const { return impl_->ground_friction; }
+
+void World::SetSlope(double slope, double direction) {
+  if (!std::isfinite(slope) || !std::isfinite(direction)) {
+    throw Error(StatusCode::kInvalidArgument, "slope and direction must be finite");
+  }
+  if (slope < 0 || slope >= kPi / 2) {
+    throw Error(StatusCode::kOutOfRange,
+                "slope " + std::to_string(slope) + " rad is outside [0, pi/2)");
+  }
+  EnsureOdeForThisThread();
+  impl_->gravity = GravityVector(impl_->options.gravity, slope, direction);
+  dWorldSetGravity(impl_->world, impl_->gravity.x(), impl_->gravity.y(), impl_->gravity.z());
+}
+
+Eigen::Vector3d World::Gravity() const { return impl_->gravity; }
+
+void World::TurnUpsideDown() {
+  EnsureOdeForThisThread();
+  const Eigen::Vector3d pivot = CentralPosition();
+  const Eigen::Matrix3d flip = Eigen::AngleAxisd(kPi, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  for (const Impl::Group& group : impl_->groups) {
+    const Eigen::Vector3d p = ToEigen3(dBodyGetPosition(group.body));
+    const Eigen::Vector3d moved = pivot + flip * (p - pivot);
+    dMatrix3 rotation;
+    ToOde(flip * ToEigen(dBodyGetRotation(group.body)), rotation);
+    dBodySetPosition(group.body, moved.x(), moved.y(), moved.z());
+    dBodySetRotation(group.body, rotation);
+    dBodySetLinearVel(group.body, 0, 0, 0);
+    dBodySetAngularVel(group.body, 0, 0, 0);
+  }
+  const double lift = impl_->options.drop_gap - impl_->LowestPoint();
+  for (const Impl::Group& group : impl_->groups) {
+    const dReal* p = dBodyGetPosition(group.body);
+    dBodySetPosition(group.body, p[0], p[1], p[2] + lift);
+  }
+  impl_->RecordSensorVelocities();
+}
+
+AccelerometerReading World::Accelerometer(int id) const {
+  EnsureOdeForThisThread();
+  const Impl::ModuleState& m = impl_->ConnectedState(id);
+  Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();
+  if (impl_->steps > 0) {
+    acceleration = (impl_->SensorVelocity(m) - m.sensor_velocity_before_step) /
+                   impl_->options.time_step;
+  }
+  const Eigen::Matrix3d rotation = impl_->PartWorldPose(m, Part::kBody).linear();
+  const Eigen::Vector3d specific_force = rotation.transpose() * (acceleration - impl_->gravity);
+  return SampleAccelerometer(specific_force, impl_->options.seed, id, impl_->steps,
+                             impl_->options.accelerometer);
+}
+
+bool World::Diverged() const { return impl_->divergence.diverged; }
+const DivergenceInfo& World::Divergence() const { return impl_->divergence; }
+
+int World::BodyCount() const { return static_cast<int>(impl_->groups.size()); }
+
+double World::TotalMass() const {
+  double total = 0;
+  for (const auto& group : impl_->groups) total += group.mass;
+  return total;
+}
+
+double World::GroupMass(int id, Part part) const {
+  const Impl::ModuleState& m = impl_->ConnectedState(id);
+  return impl_->groups[static_cast<size_t>(m.group[static_cast<int>(part)])].mass;
+}
+
+double World::LowestPoint() const {
+  EnsureOdeForThisThread();
+  return impl_->LowestPoint();
+}
+
+void World::InjectNonFiniteForTesting(int id) {
+  EnsureOdeForThisThread();
+  const Impl::ModuleState& m = impl_->ConnectedState(id);
+  const dBodyID body = impl_->groups[static_cast<size_t>(m.group[0])].body;
+  dBodySetLinearVel(body, std::nan(""), 0, 0);
+}
+
+}  // namespace yamor::physics

@@ -1,0 +1,167 @@
+// The ODE world of one robot: ground, gravity, contacts, the modules of a
+// morphology with their servos, sensors and faults. Rigidly connected parts
+// share one ODE body; the servos are hinges between those bodies.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "physics/accelerometer.h"
+#include "physics/module.h"
+#include "physics/morphology.h"
+
+namespace yamor::physics {
+
+/// Settings of a world (defaults documented in docs/module.md).
+/// Thread-safety: plain value.
+struct WorldOptions {
+  double time_step = 0.001;        ///< Fixed step, s.
+  double gravity = 9.81;           ///< Magnitude of gravity, m/s².
+  double ground_friction = 0.6;    ///< Coulomb friction module/ground.
+  double module_friction = 0.5;    ///< Coulomb friction module/module.
+  double slope = 0.0;              ///< Ground slope, rad, in [0, π/2).
+  double slope_direction = 0.0;    ///< Azimuth of the downhill direction, rad.
+  std::uint64_t seed = 0;          ///< Seed of every random source (sensor noise).
+  double contact_stiffness = 2e5;  ///< Contact spring, N/m (→ ERP/CFM per step).
+  double contact_damping = 200;    ///< Contact damper, N·s/m.
+  double drop_gap = 1e-4;          ///< Height of the lowest point above the ground at start, m.
+  double max_linear_speed = 50;    ///< Speed beyond which the world counts as diverged, m/s.
+  double max_angular_speed = 2000; ///< Angular speed beyond which it diverged, rad/s.
+  ServoSpec servo;                 ///< Servo figures shared by every module.
+  AccelerometerSpec accelerometer; ///< Accelerometer model shared by every module.
+};
+
+/// Fault state of a module's motor.
+enum class MotorFault {
+  kNone,   ///< Works normally.
+  kLimp,   ///< No torque: the handle swings freely (gear friction only).
+  kStuck,  ///< Jammed at the angle it had when the fault was set.
+};
+
+/// What the world knows about a divergence.
+struct DivergenceInfo {
+  bool diverged = false;       ///< The world is diverged now (Step() refuses to run).
+  std::uint64_t count = 0;     ///< Divergences since construction (survives Reset()).
+  std::uint64_t step = 0;      ///< Step index at which it was detected.
+  int module_id = -1;          ///< A module of the first offending body (-1: unknown).
+  std::string reason;          ///< Human-readable cause.
+};
+
+/// One robot in its own ODE world. Building a world from a Morphology places
+/// the robot resting on flat ground (lowest point `drop_gap` above z = 0, the
+/// central module above the origin), every servo at 0 with its motor on.
+/// Thread-safety: not thread-safe; one thread at a time may use a World (it may
+/// change threads between calls). Worlds are independent: different threads may
+/// each run their own World concurrently.
+class World {
+ public:
+  /// Builds the world. Throws kInvalidArgument for bad options.
+  explicit World(Morphology morphology, WorldOptions options = WorldOptions());
+  ~World();
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  /// The morphology the world was built from (the initial state).
+  const Morphology& morphology() const;
+  /// The options the world was built with.
+  const WorldOptions& options() const;
+
+  /// Advances the world by one fixed step. Throws kFailedPrecondition when the
+  /// world is diverged; a step that diverges returns normally with Diverged() set.
+  void Step();
+  /// Advances `count` steps (stops early if the world diverges).
+  void Step(int count);
+  /// Simulated time since the start or the last Reset(), s.
+  double Time() const;
+  /// Steps since the start or the last Reset().
+  std::uint64_t StepCount() const;
+
+  /// Restores the initial state exactly: a reset world replays bit-identically
+  /// to a freshly built one. Clears faults, slope and friction changes.
+  void Reset();
+
+  /// Ids of all modules (connected and free), ascending.
+  std::vector<int> ModuleIds() const;
+  /// True when the module is part of the robot (not a free spare).
+  bool IsConnected(int id) const;
+  /// Id of the central module.
+  int CentralModule() const;
+  /// World position of the central module's body centre, m.
+  Eigen::Vector3d CentralPosition() const;
+  /// World orientation of the central module's body frame.
+  Eigen::Quaterniond CentralOrientation() const;
+  /// World pose of a module's body frame; kNotFound unknown, kFailedPrecondition free.
+  Eigen::Isometry3d ModulePose(int id) const;
+  /// World pose of a module's handle frame.
+  Eigen::Isometry3d HandlePose(int id) const;
+
+  /// Sets a servo set-point (rad), clamped to ±90°. kNotFound for an unknown
+  /// module, kInvalidArgument for a non-finite angle.
+  void SetServoTarget(int id, double angle);
+  /// The current set-point of a servo, rad.
+  double ServoTarget(int id) const;
+  /// The measured hinge angle of a module (0 for a free module), rad.
+  double ServoAngle(int id) const;
+  /// Powers a servo on or off (off: the handle is back-drivable, like kLimp).
+  void SetMotorEnabled(int id, bool enabled);
+  /// True when the servo is powered.
+  bool MotorEnabled(int id) const;
+
+  /// Sets a motor fault (kStuck locks the handle at its current angle).
+  void SetMotorFault(int id, MotorFault fault);
+  /// The motor fault of a module.
+  MotorFault GetMotorFault(int id) const;
+  /// Marks a module defective: its motor goes limp; the emulated firmware
+  /// reads the flag to silence the module's oscillator.
+  void SetModuleDefect(int id, bool defective);
+  /// True when the module is marked defective.
+  bool ModuleDefective(int id) const;
+
+  /// Changes the ground friction coefficient (e.g. a new floor material).
+  /// kInvalidArgument unless finite and >= 0.
+  void SetGroundFriction(double mu);
+  /// Current ground friction coefficient.
+  double GroundFriction() const;
+  /// Tilts the ground: gravity is rotated by `slope` rad towards azimuth
+  /// `direction` (downhill). kInvalidArgument non-finite, kOutOfRange outside [0, π/2).
+  void SetSlope(double slope, double direction = 0.0);
+  /// Current gravity vector in the world frame, m/s².
+  Eigen::Vector3d Gravity() const;
+  /// Turns the robot upside down about its central module (rotation of π about
+  /// the world x axis through it), sets it back on the ground at rest.
+  void TurnUpsideDown();
+
+  /// Accelerometer of a module (MMA7260Q model, module frame, seeded noise).
+  AccelerometerReading Accelerometer(int id) const;
+
+  /// True when the world has diverged (non-finite or exploding state).
+  bool Diverged() const;
+  /// Details of the current or last divergence.
+  const DivergenceInfo& Divergence() const;
+
+  /// Number of ODE bodies (rigid groups) in the world.
+  int BodyCount() const;
+  /// Total mass of all bodies, kg.
+  double TotalMass() const;
+  /// Mass of the rigid body carrying a module's `part`, kg.
+  double GroupMass(int id, Part part) const;
+  /// Lowest point of the robot (over all collision boxes), world z, m.
+  double LowestPoint() const;
+
+  /// Test hook: writes a NaN into the velocity of the body carrying the module,
+  /// as a diverging solver would. Never call outside tests.
+  void InjectNonFiniteForTesting(int id);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace yamor::physics

@@ -1,0 +1,258 @@
+#include "physics/morphology.h"
+
+#include <filesystem>
+#include <set>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "common/status.h"
+#include "physics/placement.h"
+
+namespace yamor::physics {
+namespace {
+
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+
+const std::string kWorlds = std::string(YAMOR_SOURCE_DIR) + "/configs/worlds/";
+
+// Runs Parse on `xml` and returns the error (fails the test when none).
+Error ParseError(const std::string& xml) {
+  try {
+    Morphology::Parse(xml, "test.xml");
+  } catch (const Error& error) {
+    return error;
+  }
+  ADD_FAILURE() << "no error for:\n" << xml;
+  return Error(StatusCode::kOk, "");
+}
+
+std::string TwoModules(const std::string& connect) {
+  return "<morphology central=\"0\">\n"  // line 1
+         "  <module id=\"0\"/>\n"         // line 2
+         "  <module id=\"1\"/>\n"         // line 3
+         "  " + connect + "\n"            // line 4
+         "</morphology>\n";
+}
+
+TEST(MorphologyTest, ParsesAChain) {
+  const Morphology m = Morphology::Parse(
+      TwoModules(R"(<connect idfrom="1" connfrom="front" idto="0" connto="rear" angle="0"/>)"),
+      "chain.xml");
+  EXPECT_EQ(m.central(), 0);
+  ASSERT_EQ(m.modules().size(), 2u);
+  ASSERT_EQ(m.connections().size(), 1u);
+  EXPECT_EQ(m.connections()[0].line, 4);
+  EXPECT_TRUE(m.BodyPose(0).isApprox(Eigen::Isometry3d::Identity()));
+  const Eigen::Isometry3d expected = MateBodyPose(
+      Eigen::Isometry3d::Identity(), 0, ConnectorId::kRear, ConnectorId::kFront, 0, 0);
+  EXPECT_TRUE(m.BodyPose(1).isApprox(expected, 1e-12));
+  EXPECT_LT(m.BodyPose(1).translation().x(), -0.1);
+}
+
+TEST(MorphologyTest, AngleIsNormalisedAndOptional) {
+  const Morphology m = Morphology::Parse(
+      TwoModules(R"(<connect idfrom="1" connfrom="front" idto="0" connto="rear" angle="-90"/>)"),
+      "a.xml");
+  EXPECT_EQ(m.connections()[0].angle_steps, 18);
+  const Morphology n = Morphology::Parse(
+      TwoModules(R"(<connect idfrom="1" connfrom="front" idto="0" connto="rear"/>)"), "b.xml");
+  EXPECT_EQ(n.connections()[0].angle_steps, 0);
+}
+
+struct BadCase {
+  std::string name;
+  std::string xml;
+  std::vector<std::string> fragments;  // all must appear in the message
+};
+
+std::vector<BadCase> BadCases() {
+  return {
+      {"malformed", "<morphology central=\"0\">\n<module id=\"0\">\n</morphology>\n",
+       {"test.xml:", "malformed XML"}},
+      {"wrong_root", "<robot/>", {"test.xml:1", "<morphology>"}},
+      {"unknown_connector",
+       TwoModules(R"(<connect idfrom="1" connfrom="frnt" idto="0" connto="rear" angle="0"/>)"),
+       {"test.xml:4", "module 1", "connfrom=\"frnt\"", "unknown connector"}},
+      {"angle_not_multiple",
+       TwoModules(R"(<connect idfrom="1" connfrom="front" idto="0" connto="rear" angle="10"/>)"),
+       {"test.xml:4", "angle=\"10\"", "multiple of 15"}},
+      {"angle_not_number",
+       TwoModules(R"(<connect idfrom="1" connfrom="front" idto="0" connto="rear" angle="x"/>)"),
+       {"test.xml:4", "angle=\"x\""}},
+      {"unknown_module",
+       TwoModules(R"(<connect idfrom="1" connfrom="front" idto="9" connto="rear" angle="0"/>)"),
+       {"test.xml:4", "idto=\"9\"", "unknown module"}},
+      {"bad_id", TwoModules(R"(<connect idfrom="a" connfrom="front" idto="0" connto="rear"/>)"),
+       {"test.xml:4", "idfrom=\"a\""}},
+      {"self", TwoModules(R"(<connect idfrom="1" connfrom="front" idto="1" connto="rear"/>)"),
+       {"test.xml:4", "module 1", "itself"}},
+      {"unknown_attribute",
+       TwoModules(R"(<connect idfrom="1" connfrom="front" idto="0" conto="rear"/>)"),
+       {"test.xml:4", "conto"}},
+      {"unknown_element", TwoModules("<link/>"), {"test.xml:4", "<link>"}},
+      {"connector_used",
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\"/>\n<module id=\"2\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"rear\"/>\n"
+       "<connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"rear\"/>\n</morphology>",
+       {"test.xml:6", "module 0", "connto=\"rear\"", "already used", "line 5"}},
+      {"duplicate_id",
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"0\"/>\n</morphology>",
+       {"test.xml:3", "duplicate module id=\"0\""}},
+      {"central_missing", "<morphology central=\"7\">\n<module id=\"0\"/>\n</morphology>",
+       {"test.xml", "central module 7"}},
+      {"central_attribute_missing", "<morphology>\n<module id=\"0\"/>\n</morphology>",
+       {"test.xml:1", "central"}},
+      {"central_free", "<morphology central=\"0\">\n<module id=\"0\" free=\"true\"/>\n</morphology>",
+       {"test.xml:2", "central module 0", "free"}},
+      {"not_connected",
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"5\"/>\n</morphology>",
+       {"test.xml:3", "id=\"5\"", "not connected"}},
+      {"free_connected",
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\" free=\"true\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"rear\"/>\n</morphology>",
+       {"test.xml:4", "idfrom=\"1\"", "free"}},
+      {"overlap",
+       // Two modules on the central's left and top faces at angles that make
+       // their 60 mm wide handles collide at the edge between the faces.
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\"/>\n<module id=\"2\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"left\" angle=\"90\"/>\n"
+       "<connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"top\" angle=\"90\"/>\n"
+       "</morphology>",
+       {"test.xml:6", "module id=\"2\"", "overlaps module id=\"1\""}},
+      {"overlap_direct",
+       // Module 2 screwed onto module 1's rear lands inside the central module.
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\"/>\n<module id=\"2\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"rear\" idto=\"0\" connto=\"top\" angle=\"0\"/>\n"
+       "<connect idfrom=\"2\" connfrom=\"top\" idto=\"1\" connto=\"front\" angle=\"0\"/>\n"
+       "</morphology>",
+       {"test.xml:6", "module id=\"2\"", "overlaps"}},
+  };
+}
+
+TEST(MorphologyTest, ValidationErrorsNameFileLineAndCulprit) {
+  for (const BadCase& bad : BadCases()) {
+    SCOPED_TRACE(bad.name);
+    const Error error = ParseError(bad.xml);
+    EXPECT_EQ(error.code(), StatusCode::kInvalidArgument);
+    for (const std::string& fragment : bad.fragments) {
+      EXPECT_THAT(error.what(), HasSubstr(fragment));
+    }
+  }
+}
+
+TEST(MorphologyTest, LoopClosureMustAgree) {
+  const Morphology wheel = Morphology::LoadFile(kWorlds + "wheel.xml");
+  std::vector<MorphologyConnection> connections = wheel.connections();
+  // Turning the closing connection by 15° breaks the loop.
+  connections.back().angle_steps = (connections.back().angle_steps + 1) % 24;
+  try {
+    Morphology::Build(wheel.central(), wheel.modules(), connections);
+    FAIL() << "inconsistent loop accepted";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kInvalidArgument);
+    EXPECT_THAT(error.what(), AllOf(HasSubstr("closes a loop"), HasSubstr("idfrom=\"3\"")));
+  }
+}
+
+TEST(MorphologyTest, MissingFileIsNotFound) {
+  try {
+    Morphology::LoadFile(kWorlds + "no-such-robot.xml");
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kNotFound);
+    EXPECT_THAT(error.what(), HasSubstr("no-such-robot.xml"));
+  }
+}
+
+TEST(MorphologyTest, FreeModulesHaveNoPose) {
+  const Morphology m = Morphology::Parse(
+      "<morphology central=\"0\"><module id=\"0\"/><module id=\"3\" free=\"true\"/></morphology>",
+      "free.xml");
+  EXPECT_TRUE(m.Module(3).free);
+  try {
+    m.BodyPose(3);
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kFailedPrecondition);
+  }
+  try {
+    m.Module(4);
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kNotFound);
+  }
+}
+
+TEST(MorphologyTest, CanonicalXmlRoundTrips) {
+  for (const char* robot : {"quadruped", "wheel", "dog"}) {
+    const Morphology m = Morphology::LoadFile(kWorlds + robot + ".xml");
+    const Morphology again = Morphology::Parse(m.ToXml(), "round-trip");
+    EXPECT_EQ(again.central(), m.central());
+    for (const MorphologyModule& module : m.modules()) {
+      EXPECT_TRUE(again.BodyPose(module.id).isApprox(m.BodyPose(module.id), 1e-12)) << robot;
+    }
+  }
+}
+
+TEST(MorphologyTest, ConnectedConnectorsCoincideInEveryWorld) {
+  for (const auto& entry : std::filesystem::directory_iterator(kWorlds)) {
+    if (entry.path().extension() != ".xml") continue;
+    const Morphology m = Morphology::LoadFile(entry.path());
+    for (const MorphologyConnection& c : m.connections()) {
+      const WorldConnector a = ModuleConnector(m.BodyPose(c.from), 0, c.from_connector);
+      const WorldConnector b = ModuleConnector(m.BodyPose(c.to), 0, c.to_connector);
+      SCOPED_TRACE(entry.path().filename().string() + ":" + std::to_string(c.line));
+      EXPECT_TRUE(a.normal.isApprox(-b.normal, 1e-9));
+      EXPECT_NEAR((a.position - b.position).norm(), module::kConnectionGap, 1e-9);
+      double angle = SignedAngle(b.north, a.north, b.normal);
+      if (angle < -1e-9) angle += 2 * M_PI;
+      EXPECT_NEAR(angle, c.angle_steps * module::kConnectionAngleStep, 1e-9);
+    }
+  }
+}
+
+struct RobotIds {
+  const char* file;
+  int central;
+  std::set<int> ids;
+};
+
+TEST(MorphologyTest, RobotWorldsHaveTheConfiguredModuleIds) {
+  const RobotIds robots[] = {
+      {"quadruped", 4, {0, 1, 2, 3, 4, 5, 6, 7, 8}},
+      {"snake", 0, {0, 1, 2, 3, 4, 5, 6, 7, 8}},
+      {"trebuchet", 10, {1, 7, 10, 12}},
+      {"dog", 11, {1, 5, 10, 11, 12}},
+      {"wheel", 1, {1, 2, 3, 6, 7, 12}},
+      {"tripod", 0, {0, 1, 2, 3, 4, 5, 6}},
+  };
+  for (const RobotIds& robot : robots) {
+    const Morphology m = Morphology::LoadFile(kWorlds + robot.file + ".xml");
+    EXPECT_EQ(m.central(), robot.central) << robot.file;
+    std::set<int> ids;
+    for (const MorphologyModule& module : m.modules()) ids.insert(module.id);
+    EXPECT_EQ(ids, robot.ids) << robot.file;
+  }
+  // Quadruped: hip i carries knee i + 5; tripod: hip i carries knee i + 3.
+  const Morphology quadruped = Morphology::LoadFile(kWorlds + "quadruped.xml");
+  const Morphology tripod = Morphology::LoadFile(kWorlds + "tripod.xml");
+  auto linked = [](const Morphology& m, int a, int b) {
+    for (const MorphologyConnection& c : m.connections()) {
+      if ((c.from == a && c.to == b) || (c.from == b && c.to == a)) return true;
+    }
+    return false;
+  };
+  for (int hip = 0; hip < 4; ++hip) {
+    EXPECT_TRUE(linked(quadruped, hip, 4));
+    EXPECT_TRUE(linked(quadruped, hip, hip + 5));
+  }
+  for (int hip = 1; hip <= 3; ++hip) {
+    EXPECT_TRUE(linked(tripod, hip, 0));
+    EXPECT_TRUE(linked(tripod, hip, hip + 3));
+  }
+}
+
+}  // namespace
+}  // namespace yamor::physics
