@@ -252,8 +252,8 @@ std::optional<snp::Message> Robot::Apply(ModuleFirmware& fw, const snp::Message&
   }
   if (const auto* m = std::get_if<snp::SetCoupling>(&message)) {
     if (m->to == fw.id) return MakeAck(type, StatusCode::kInvalidArgument);
-    if (!(std::fabs(m->weight) <= kMaxCouplingWeight) ||
-        !(std::fabs(m->phase) <= 4.0 * M_PI)) {
+    // Any finite phase is fine (it is periodic); weights are bounded.
+    if (!(std::fabs(m->weight) <= kMaxCouplingWeight)) {
       return MakeAck(type, StatusCode::kOutOfRange);
     }
     fw.couplings[m->to] = FirmwareCoupling{.phase = m->phase, .weight = m->weight};

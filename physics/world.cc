@@ -2,9 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <cstring>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <numeric>
 
 #include <ode/ode.h>
@@ -25,6 +26,9 @@ constexpr int kMaxContactsPerPair = 4;
 constexpr double kJointErp = 0.2;
 constexpr double kJointCfm = 1e-6;
 constexpr double kMaxPosition = 1e4;  // m: anything farther away has blown up
+// A module being connected must clear every other box shrunk by this much per
+// face (the mated faces themselves are 100 µm apart).
+constexpr double kRoomTolerance = 5e-4;  // m
 
 Eigen::Matrix3d ToEigen(const dReal* r) {
   Eigen::Matrix3d m;
@@ -81,6 +85,10 @@ void CheckOptions(const WorldOptions& o) {
     }
   };
   positive(o.time_step, "time_step");
+  if (o.iterations < 1 || o.iterations > 10000) {
+    throw Error(StatusCode::kInvalidArgument,
+                "iterations must be in [1, 10000], got " + std::to_string(o.iterations));
+  }
   if (o.time_step > 0.05) {
     throw Error(StatusCode::kOutOfRange,
                 "time_step " + std::to_string(o.time_step) + " s is above 0.05 s");
@@ -107,6 +115,9 @@ void CheckOptions(const WorldOptions& o) {
   positive(o.accelerometer.count_size, "accelerometer.count_size");
 }
 
+// Guards ODE's process-wide random generator used by dWorldQuickStep.
+std::mutex quick_step_mutex;
+
 Eigen::Vector3d GravityVector(double g, double slope, double direction) {
   return g * Eigen::Vector3d(std::sin(slope) * std::cos(direction),
                              std::sin(slope) * std::sin(direction), -std::cos(slope));
@@ -117,10 +128,11 @@ Eigen::Vector3d GravityVector(double g, double slope, double direction) {
 struct World::Impl {
   struct ModuleState {
     int id = 0;
-    bool connected = false;
+    ModulePresence presence = ModulePresence::kPutAway;
+    bool simulated() const { return presence != ModulePresence::kPutAway; }
     int group[2] = {-1, -1};     // rigid group of the body and the handle part
     Eigen::Isometry3d offset[2] = {Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
-    dJointID hinge = nullptr;    // null when free or when body and handle are one rigid group
+    dJointID hinge = nullptr;    // null when put away or when body and handle are one rigid group
     double hinge_offset = 0;     // servo angle = hinge angle + offset
     double target = 0;
     bool motor_on = true;
@@ -145,6 +157,10 @@ struct World::Impl {
   WorldOptions options;
 
   dWorldID world = nullptr;
+  // ODE's default threading implementation is one process-wide object that is
+  // not safe to share between worlds stepping in different threads: each world
+  // gets its own (self-threaded, i.e. it runs in the caller's thread).
+  dThreadingImplementationID threading = nullptr;
   dSpaceID space = nullptr;
   dJointGroupID contacts = nullptr;
   dGeomID ground = nullptr;
@@ -158,6 +174,9 @@ struct World::Impl {
   double contact_cfm = 0;
   std::uint64_t steps = 0;
   DivergenceInfo divergence;
+  bool poisoned = false;            // ODE threw during a step: never touch its objects again
+  unsigned long random_state = 0;   // this world's share of ODE's generator (kIterative)
+  bool skip_pre_step_check = false;  // test hook: let a bad state reach ODE
 
   Impl(Morphology m, WorldOptions o) : morphology(std::move(m)), options(std::move(o)) {
     CheckOptions(options);
@@ -176,7 +195,22 @@ struct World::Impl {
     dJointGroupDestroy(contacts);
     dSpaceDestroy(space);  // destroys the geoms (cleanup mode is on)
     dWorldDestroy(world);  // destroys bodies and joints
+    if (poisoned) {
+      // ODE threw out of the middle of a step and left jobs in the world's
+      // threading object; freeing it trips an assertion in a destructor. Keep
+      // it, reachable, for the life of the process (a few kB per event).
+      Log().warn("retiring the ODE threading object of a world that failed inside ODE");
+      static std::vector<dThreadingImplementationID>* const retired =
+          new std::vector<dThreadingImplementationID>();
+      static std::mutex retired_mutex;
+      const std::lock_guard<std::mutex> lock(retired_mutex);
+      retired->push_back(threading);
+      poisoned = false;
+    } else {
+      dThreadingFreeImplementation(threading);
+    }
     world = nullptr;
+    threading = nullptr;
     space = nullptr;
     contacts = nullptr;
     ground = nullptr;
@@ -196,13 +230,38 @@ struct World::Impl {
   }
   const ModuleState& State(int id) const { return const_cast<Impl*>(this)->State(id); }
 
-  const ModuleState& ConnectedState(int id) const {
+  // A module that has bodies in the world (part of the robot or loose).
+  const ModuleState& SimulatedState(int id) const {
     const ModuleState& m = State(id);
-    if (!m.connected) {
+    if (!m.simulated()) {
       throw Error(StatusCode::kFailedPrecondition,
-                  "module " + std::to_string(id) + " is free (not part of the robot)");
+                  "module " + std::to_string(id) + " is put away (not in the world)");
     }
     return m;
+  }
+
+  // Robot = simulated modules reachable from the central one through the
+  // current connections; other simulated modules are loose.
+  void UpdatePresence() {
+    std::vector<bool> reached(modules.size(), false);
+    std::vector<size_t> stack{index.at(morphology.central())};
+    reached[stack.back()] = true;
+    while (!stack.empty()) {
+      const int current = modules[stack.back()].id;
+      stack.pop_back();
+      for (const MorphologyConnection& c : connections) {
+        if (c.from != current && c.to != current) continue;
+        const size_t other = index.at(c.from == current ? c.to : c.from);
+        if (!reached[other]) {
+          reached[other] = true;
+          stack.push_back(other);
+        }
+      }
+    }
+    for (size_t i = 0; i < modules.size(); ++i) {
+      if (!modules[i].simulated()) continue;
+      modules[i].presence = reached[i] ? ModulePresence::kInRobot : ModulePresence::kLoose;
+    }
   }
 
   // Fresh state from the morphology: every module at its placed pose, at rest.
@@ -217,13 +276,15 @@ struct World::Impl {
       index[id] = modules.size();
       ModuleState state;
       state.id = id;
-      state.connected = !morphology.Module(id).free;
+      state.presence = morphology.Module(id).free ? ModulePresence::kPutAway
+                                                  : ModulePresence::kInRobot;
       modules.push_back(state);
     }
     connections = morphology.connections();
     ground_friction = options.ground_friction;
     gravity = GravityVector(options.gravity, options.slope, options.slope_direction);
     steps = 0;
+    random_state = 0;
     divergence.diverged = false;
     divergence.step = 0;
     divergence.module_id = -1;
@@ -232,7 +293,7 @@ struct World::Impl {
     // Robot frame -> world: central above the origin, lowest point at drop_gap.
     std::vector<OrientedBox> boxes;
     for (const ModuleState& m : modules) {
-      if (!m.connected) continue;
+      if (!m.simulated()) continue;
       const auto module_boxes = ModuleWorldBoxes(morphology.BodyPose(m.id), 0.0);
       boxes.insert(boxes.end(), module_boxes.begin(), module_boxes.end());
     }
@@ -242,7 +303,7 @@ struct World::Impl {
     std::vector<std::array<PartMotion, 2>> motion(modules.size());
     std::vector<double> servo(modules.size(), 0.0);
     for (size_t i = 0; i < modules.size(); ++i) {
-      if (!modules[i].connected) continue;
+      if (!modules[i].simulated()) continue;
       const Eigen::Isometry3d body = shift * morphology.BodyPose(modules[i].id);
       motion[i][0].pose = body;
       motion[i][1].pose = PartPose(body, Part::kHandle, 0.0);
@@ -250,16 +311,23 @@ struct World::Impl {
     Build(motion, servo);
   }
 
-  // Creates the ODE world with the current connection graph; every connected
+  // Creates the ODE world with the current connection graph; every simulated
   // module's parts are at `motion`, their hinges at `servo`.
   void Build(const std::vector<std::array<PartMotion, 2>>& motion,
              const std::vector<double>& servo) {
     EnsureOdeForThisThread();
     world = dWorldCreate();
+    threading = dThreadingAllocateSelfThreadedImplementation();
+    if (threading == nullptr) {
+      throw Error(StatusCode::kResourceExhausted, "ODE could not allocate a threading context");
+    }
+    dWorldSetStepThreadingImplementation(world, dThreadingImplementationGetFunctions(threading),
+                                         threading);
     dWorldSetGravity(world, gravity.x(), gravity.y(), gravity.z());
     dWorldSetERP(world, kJointErp);
     dWorldSetCFM(world, kJointCfm);
     dWorldSetAutoDisableFlag(world, 0);
+    dWorldSetQuickStepNumIterations(world, options.iterations);
     space = dHashSpaceCreate(nullptr);
     dHashSpaceSetLevels(space, -5, 1);
     contacts = dJointGroupCreate(0);
@@ -277,7 +345,7 @@ struct World::Impl {
     std::map<size_t, int> group_of_root;
     groups.clear();
     for (size_t i = 0; i < modules.size(); ++i) {
-      if (!modules[i].connected) continue;
+      if (!modules[i].simulated()) continue;
       for (int p = 0; p < 2; ++p) {
         const size_t root = sets.Find(i * 2 + static_cast<size_t>(p));
         auto [it, inserted] = group_of_root.emplace(root, static_cast<int>(groups.size()));
@@ -342,7 +410,7 @@ struct World::Impl {
       ModuleState& m = modules[i];
       m.hinge = nullptr;
       m.hinge_offset = servo[i];
-      if (!m.connected) continue;
+      if (!m.simulated()) continue;
       if (m.group[0] == m.group[1]) {
         Log().warn("module {}: body and handle are rigidly connected; its servo cannot move", m.id);
         continue;
@@ -358,8 +426,11 @@ struct World::Impl {
                    groups[static_cast<size_t>(m.group[1])].body);
       dJointSetHingeAnchor(m.hinge, anchor.x(), anchor.y(), anchor.z());
       dJointSetHingeAxis(m.hinge, axis.x(), axis.y(), axis.z());
-      dJointSetHingeParam(m.hinge, dParamLoStop, -module::kServoLimit - m.hinge_offset);
-      dJointSetHingeParam(m.hinge, dParamHiStop, module::kServoLimit - m.hinge_offset);
+      // Stops in the joint's own angle (zero at creation); ODE wants [-π, π].
+      dJointSetHingeParam(m.hinge, dParamLoStop,
+                          std::max(-kPi, -module::kServoLimit - m.hinge_offset));
+      dJointSetHingeParam(m.hinge, dParamHiStop,
+                          std::min(kPi, module::kServoLimit - m.hinge_offset));
       dJointSetHingeParam(m.hinge, dParamFMax, 0);
     }
     RecordSensorVelocities();
@@ -379,7 +450,7 @@ struct World::Impl {
   }
 
   double ServoAngleOf(const ModuleState& m) const {
-    if (m.hinge == nullptr) return m.connected ? m.hinge_offset : 0.0;
+    if (m.hinge == nullptr) return m.simulated() ? m.hinge_offset : 0.0;
     return dJointGetHingeAngle(m.hinge) + m.hinge_offset;
   }
 
@@ -393,7 +464,7 @@ struct World::Impl {
 
   void RecordSensorVelocities() {
     for (ModuleState& m : modules) {
-      if (m.connected) m.sensor_velocity_before_step = SensorVelocity(m);
+      if (m.simulated()) m.sensor_velocity_before_step = SensorVelocity(m);
     }
   }
 
@@ -458,7 +529,9 @@ struct World::Impl {
     return modules[group.parts.front().first].id;
   }
 
-  void CheckDivergence() {
+  // Checks every body after a step (or before one, for non-finite values that
+  // must never reach ODE); marks the world diverged on the first bad body.
+  void CheckDivergence(bool finite_only = false) {
     for (const Group& group : groups) {
       const Eigen::Vector3d p = ToEigen3(dBodyGetPosition(group.body));
       const Eigen::Vector3d v = ToEigen3(dBodyGetLinearVel(group.body));
@@ -470,6 +543,8 @@ struct World::Impl {
       std::string reason;
       if (!finite) {
         reason = "non-finite body state";
+      } else if (finite_only) {
+        continue;
       } else if (v.norm() > options.max_linear_speed) {
         reason = "linear speed " + std::to_string(v.norm()) + " m/s";
       } else if (w.norm() > options.max_angular_speed) {
@@ -491,13 +566,25 @@ struct World::Impl {
                   "world diverged at step " + std::to_string(divergence.step) + " (" +
                       divergence.reason + "); Reset() it first");
     }
+    if (!skip_pre_step_check) {
+      CheckDivergence(/*finite_only=*/true);
+      if (divergence.diverged) return;
+    }
+    skip_pre_step_check = false;
     ApplyServos();
     RecordSensorVelocities();
     try {
       dSpaceCollide(space, this, &NearCallback);
-      dWorldStep(world, options.time_step);
+      if (options.step_method == StepMethod::kExact) {
+        dWorldStep(world, options.time_step);
+      } else {
+        std::lock_guard<std::mutex> lock(quick_step_mutex);
+        dRandSetSeed(random_state);
+        dWorldQuickStep(world, options.time_step);
+        random_state = dRandGetSeed();
+      }
     } catch (const OdeFailure& failure) {
-      dJointGroupEmpty(contacts);
+      poisoned = true;
       ++steps;
       MarkDiverged(-1, failure.what());
       return;
@@ -505,6 +592,192 @@ struct World::Impl {
     dJointGroupEmpty(contacts);
     ++steps;
     CheckDivergence();
+  }
+
+  // Current pose and velocity of every simulated part and every servo angle.
+  void Snapshot(std::vector<std::array<PartMotion, 2>>* motion, std::vector<double>* servo) const {
+    motion->assign(modules.size(), {});
+    servo->assign(modules.size(), 0.0);
+    for (size_t i = 0; i < modules.size(); ++i) {
+      const ModuleState& m = modules[i];
+      if (!m.simulated()) continue;
+      (*servo)[i] = ServoAngleOf(m);
+      for (int p = 0; p < 2; ++p) {
+        (*motion)[i][static_cast<size_t>(p)] = MotionOf(m.group[p], PartWorldPose(m, Part(p)));
+      }
+    }
+  }
+
+  // Rigid motion of group `g` expressed at a frame `pose` moving with it.
+  PartMotion MotionOf(int g, const Eigen::Isometry3d& pose) const {
+    const dBodyID body = groups[static_cast<size_t>(g)].body;
+    PartMotion motion;
+    motion.pose = pose;
+    dVector3 velocity;
+    const Eigen::Vector3d origin = pose.translation();
+    dBodyGetPointVel(body, origin.x(), origin.y(), origin.z(), velocity);
+    motion.linear = ToEigen3(velocity);
+    motion.angular = ToEigen3(dBodyGetAngularVel(body));
+    return motion;
+  }
+
+  void Rebuild(const std::vector<std::array<PartMotion, 2>>& motion,
+               const std::vector<double>& servo) {
+    Destroy();
+    Build(motion, servo);
+  }
+
+  void CheckCanReconfigure() const {
+    if (divergence.diverged) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  "world diverged at step " + std::to_string(divergence.step) +
+                      "; Reset() it before reconfiguring");
+    }
+  }
+
+  bool ConnectorUsed(int id, ConnectorId connector) const {
+    for (const MorphologyConnection& c : connections) {
+      if ((c.from == id && c.from_connector == connector) ||
+          (c.to == id && c.to_connector == connector)) {
+        return true;
+      }
+    }
+    return false;
+  }
+
+  void Connect(int from, ConnectorId from_connector, int to, ConnectorId to_connector,
+               int angle_steps) {
+    EnsureOdeForThisThread();
+    const std::string what = "connect " + std::to_string(from) + "." +
+                             std::string(ConnectorName(from_connector)) + " to " +
+                             std::to_string(to) + "." + std::string(ConnectorName(to_connector));
+    const ModuleState& source = State(from);
+    const ModuleState& target = State(to);
+    if (from == to) {
+      throw Error(StatusCode::kInvalidArgument, what + ": a module cannot connect to itself");
+    }
+    CheckCanReconfigure();
+    if (target.presence != ModulePresence::kInRobot) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  what + ": module " + std::to_string(to) + " is not part of the robot");
+    }
+    if (source.presence == ModulePresence::kInRobot) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  what + ": module " + std::to_string(from) +
+                      " is part of the robot; disconnect it first");
+    }
+    for (const MorphologyConnection& c : connections) {
+      if (c.from == from || c.to == from) {
+        throw Error(StatusCode::kFailedPrecondition,
+                    what + ": module " + std::to_string(from) +
+                        " is still connected to another loose module; disconnect it first");
+      }
+    }
+    if (ConnectorUsed(to, to_connector)) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  what + ": connector " + std::string(ConnectorName(to_connector)) +
+                      " of module " + std::to_string(to) + " is already used");
+    }
+    const int steps_normalised = ((angle_steps % module::kConnectionAngleSteps) +
+                                  module::kConnectionAngleSteps) %
+                                 module::kConnectionAngleSteps;
+
+    // Frozen world: read the state, place the module exactly on the target
+    // connector as it is now (servo at its current angle), the new module's
+    // servo at 0 (thesis 5.4.2).
+    std::vector<std::array<PartMotion, 2>> motion;
+    std::vector<double> servo;
+    Snapshot(&motion, &servo);
+    const size_t si = index.at(from);
+    const size_t ti = index.at(to);
+    const Eigen::Isometry3d body = MateBodyPose(motion[ti][0].pose, servo[ti], to_connector,
+                                                from_connector, 0.0, steps_normalised);
+    const int carrier = target.group[static_cast<int>(ConnectorFrameOf(to_connector).part)];
+    motion[si][0] = MotionOf(carrier, body);
+    motion[si][1] = MotionOf(carrier, PartPose(body, Part::kHandle, 0.0));
+    servo[si] = 0.0;
+
+    // Only the ground in the way: lift the whole robot (and the newcomer).
+    std::vector<OrientedBox> newcomer = ModuleWorldBoxes(body, 0.0);
+    const double lowest = physics::LowestPoint(newcomer);
+    double lift = 0;
+    if (lowest < 0) {
+      lift = options.drop_gap - lowest;
+      for (size_t i = 0; i < modules.size(); ++i) {
+        if (modules[i].presence != ModulePresence::kInRobot && i != si) continue;
+        for (PartMotion& part : motion[i]) part.pose.translation().z() += lift;
+      }
+      newcomer = ModuleWorldBoxes(motion[si][0].pose, 0.0);
+    }
+    // Room: the newcomer against every simulated module; after a lift, the
+    // robot against loose modules too.
+    for (size_t i = 0; i < modules.size(); ++i) {
+      if (i == si || !modules[i].simulated()) continue;
+      const auto boxes = ModuleWorldBoxes(motion[i][0].pose, servo[i]);
+      for (size_t a = 0; a < newcomer.size(); ++a) {
+        for (size_t b = 0; b < boxes.size(); ++b) {
+          if (BoxesOverlap(newcomer[a], boxes[b], kRoomTolerance)) {
+            throw Error(StatusCode::kFailedPrecondition,
+                        what + ": no room, module " + std::to_string(from) + " (" +
+                            std::string(ModuleBoxes()[a].name) + ") would overlap module " +
+                            std::to_string(modules[i].id) + " (" +
+                            std::string(ModuleBoxes()[b].name) + ")");
+          }
+        }
+      }
+      if (lift > 0 && modules[i].presence == ModulePresence::kLoose) {
+        for (size_t j = 0; j < modules.size(); ++j) {
+          if (modules[j].presence != ModulePresence::kInRobot) continue;
+          for (const OrientedBox& r : ModuleWorldBoxes(motion[j][0].pose, servo[j])) {
+            for (const OrientedBox& l : boxes) {
+              if (BoxesOverlap(r, l, kRoomTolerance)) {
+                throw Error(StatusCode::kFailedPrecondition,
+                            what + ": no room to lift the robot, module " +
+                                std::to_string(modules[j].id) + " would hit loose module " +
+                                std::to_string(modules[i].id));
+              }
+            }
+          }
+        }
+      }
+    }
+
+    MorphologyConnection connection;
+    connection.from = from;
+    connection.from_connector = from_connector;
+    connection.to = to;
+    connection.to_connector = to_connector;
+    connection.angle_steps = steps_normalised;
+    connections.push_back(connection);
+    modules[si].presence = ModulePresence::kLoose;  // simulated from now on
+    UpdatePresence();
+    Rebuild(motion, servo);
+    Log().info("connected module {} ({}) to module {} ({}) at {} deg{}", from,
+               ConnectorName(from_connector), to, ConnectorName(to_connector),
+               steps_normalised * 15, lift > 0 ? " after lifting the robot" : "");
+  }
+
+  void Disconnect(int id, bool put_away) {
+    EnsureOdeForThisThread();
+    ModuleState& m = State(id);
+    if (id == morphology.central()) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  "module " + std::to_string(id) + " is the central module and cannot be removed");
+    }
+    CheckCanReconfigure();
+    if (!m.simulated()) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  "module " + std::to_string(id) + " is already put away");
+    }
+    std::vector<std::array<PartMotion, 2>> motion;
+    std::vector<double> servo;
+    Snapshot(&motion, &servo);
+    std::erase_if(connections,
+                  [id](const MorphologyConnection& c) { return c.from == id || c.to == id; });
+    m.presence = put_away ? ModulePresence::kPutAway : ModulePresence::kLoose;
+    UpdatePresence();
+    Rebuild(motion, servo);
+    Log().info("disconnected module {}{}", id, put_away ? " and put it away" : "");
   }
 
   double LowestPoint() const {
@@ -555,7 +828,20 @@ std::vector<int> World::ModuleIds() const {
   return ids;
 }
 
-bool World::IsConnected(int id) const { return impl_->State(id).connected; }
+bool World::IsConnected(int id) const {
+  return impl_->State(id).presence == ModulePresence::kInRobot;
+}
+
+ModulePresence World::Presence(int id) const { return impl_->State(id).presence; }
+
+std::vector<MorphologyConnection> World::Connections() const { return impl_->connections; }
+
+void World::Connect(int from, ConnectorId from_connector, int to, ConnectorId to_connector,
+                    int angle_steps) {
+  impl_->Connect(from, from_connector, to, to_connector, angle_steps);
+}
+
+void World::Disconnect(int id, bool put_away) { impl_->Disconnect(id, put_away); }
 int World::CentralModule() const { return impl_->morphology.central(); }
 
 Eigen::Vector3d World::CentralPosition() const { return ModulePose(CentralModule()).translation(); }
@@ -565,11 +851,11 @@ Eigen::Quaterniond World::CentralOrientation() const {
 }
 
 Eigen::Isometry3d World::ModulePose(int id) const {
-  return impl_->PartWorldPose(impl_->ConnectedState(id), Part::kBody);
+  return impl_->PartWorldPose(impl_->SimulatedState(id), Part::kBody);
 }
 
 Eigen::Isometry3d World::HandlePose(int id) const {
-  return impl_->PartWorldPose(impl_->ConnectedState(id), Part::kHandle);
+  return impl_->PartWorldPose(impl_->SimulatedState(id), Part::kHandle);
 }
 
 void World::SetServoTarget(int id, double angle) {
@@ -653,7 +939,7 @@ void World::TurnUpsideDown() {
 
 AccelerometerReading World::Accelerometer(int id) const {
   EnsureOdeForThisThread();
-  const Impl::ModuleState& m = impl_->ConnectedState(id);
+  const Impl::ModuleState& m = impl_->SimulatedState(id);
   Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();
   if (impl_->steps > 0) {
     acceleration = (impl_->SensorVelocity(m) - m.sensor_velocity_before_step) /
@@ -677,7 +963,7 @@ double World::TotalMass() const {
 }
 
 double World::GroupMass(int id, Part part) const {
-  const Impl::ModuleState& m = impl_->ConnectedState(id);
+  const Impl::ModuleState& m = impl_->SimulatedState(id);
   return impl_->groups[static_cast<size_t>(m.group[static_cast<int>(part)])].mass;
 }
 
@@ -686,11 +972,13 @@ double World::LowestPoint() const {
   return impl_->LowestPoint();
 }
 
-void World::InjectNonFiniteForTesting(int id) {
+void World::InjectNonFiniteForTesting(int id, bool reach_ode) {
   EnsureOdeForThisThread();
-  const Impl::ModuleState& m = impl_->ConnectedState(id);
+  const Impl::ModuleState& m = impl_->SimulatedState(id);
   const dBodyID body = impl_->groups[static_cast<size_t>(m.group[0])].body;
   dBodySetLinearVel(body, std::nan(""), 0, 0);
+  dBodySetAngularVel(body, 0, std::nan(""), 0);
+  impl_->skip_pre_step_check = reach_ode;
 }
 
 }  // namespace yamor::physics

@@ -17,10 +17,24 @@
 
 namespace yamor::physics {
 
+/// How the world advances one step.
+enum class StepMethod {
+  /// dWorldStep: exact (Dantzig LCP), deterministic; cost grows ~cubically
+  /// with the number of constraint rows (contacts + joints).
+  kExact,
+  /// dWorldQuickStep: iterative, roughly linear cost, approximate. ODE draws
+  /// its constraint order from one process-wide random generator, so these
+  /// steps run one at a time in the process with each world's own generator
+  /// state swapped in (deterministic, but serialised across threads).
+  kIterative,
+};
+
 /// Settings of a world (defaults documented in docs/module.md).
 /// Thread-safety: plain value.
 struct WorldOptions {
   double time_step = 0.001;        ///< Fixed step, s.
+  StepMethod step_method = StepMethod::kExact;  ///< Solver.
+  int iterations = 20;             ///< Iterations per step for kIterative.
   double gravity = 9.81;           ///< Magnitude of gravity, m/s².
   double ground_friction = 0.6;    ///< Coulomb friction module/ground.
   double module_friction = 0.5;    ///< Coulomb friction module/module.
@@ -41,6 +55,13 @@ enum class MotorFault {
   kNone,   ///< Works normally.
   kLimp,   ///< No torque: the handle swings freely (gear friction only).
   kStuck,  ///< Jammed at the angle it had when the fault was set.
+};
+
+/// Where a module is.
+enum class ModulePresence {
+  kInRobot,  ///< Connected (directly or not) to the central module.
+  kLoose,    ///< In the world but not connected to the robot (it dropped away).
+  kPutAway,  ///< Not in the world: a free spare or a module put away.
 };
 
 /// What the world knows about a divergence.
@@ -89,15 +110,34 @@ class World {
 
   /// Ids of all modules (connected and free), ascending.
   std::vector<int> ModuleIds() const;
-  /// True when the module is part of the robot (not a free spare).
+  /// True when the module is part of the robot (connected to the central module).
   bool IsConnected(int id) const;
+  /// Where the module is: in the robot, loose in the world, or put away.
+  ModulePresence Presence(int id) const;
+  /// The current physical links (the morphology's, changed by Connect/Disconnect).
+  std::vector<MorphologyConnection> Connections() const;
+
+  /// Connects module `from` (put away or loose, with no links) by connector
+  /// `from_connector` onto `to_connector` of robot module `to`, the norths
+  /// `angle_steps`·15° apart. The world is frozen meanwhile: the module is
+  /// placed exactly on the connector as it is now (its own servo at 0) and
+  /// joined in the same instant. When only the ground is in the way the robot
+  /// is lifted first. Errors: kNotFound unknown module, kInvalidArgument
+  /// self-connection, kFailedPrecondition connector in use, module in the robot
+  /// or still linked, no room, or a diverged world.
+  void Connect(int from, ConnectorId from_connector, int to, ConnectorId to_connector,
+               int angle_steps);
+  /// Removes every link of module `id`: with `put_away` it leaves the world,
+  /// otherwise it stays as a loose body and drops. Parts cut off from the
+  /// central module become loose. kFailedPrecondition for the central module.
+  void Disconnect(int id, bool put_away = true);
   /// Id of the central module.
   int CentralModule() const;
   /// World position of the central module's body centre, m.
   Eigen::Vector3d CentralPosition() const;
   /// World orientation of the central module's body frame.
   Eigen::Quaterniond CentralOrientation() const;
-  /// World pose of a module's body frame; kNotFound unknown, kFailedPrecondition free.
+  /// World pose of a module's body frame; kNotFound unknown, kFailedPrecondition put away.
   Eigen::Isometry3d ModulePose(int id) const;
   /// World pose of a module's handle frame.
   Eigen::Isometry3d HandlePose(int id) const;
@@ -155,9 +195,11 @@ class World {
   /// Lowest point of the robot (over all collision boxes), world z, m.
   double LowestPoint() const;
 
-  /// Test hook: writes a NaN into the velocity of the body carrying the module,
-  /// as a diverging solver would. Never call outside tests.
-  void InjectNonFiniteForTesting(int id);
+  /// Test hook: writes NaNs into the velocity of the body carrying the module's
+  /// body, as a diverging solver would. The next Step() finds them before ODE
+  /// sees them; with `reach_ode` it hands them to ODE, whose internal checks
+  /// then fail inside the step (the path of a solver blowing up). Tests only.
+  void InjectNonFiniteForTesting(int id, bool reach_ode = false);
 
  private:
   struct Impl;

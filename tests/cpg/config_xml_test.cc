@@ -145,15 +145,15 @@ TEST(RobotFilesTest, QuadrupedMatchesFigureC5AndTable61) {
     EXPECT_EQ(*quad.FindModule(hip),
               (ModuleParams{hip, 0.784599677188, 0, 0.3, -0.78, 0.78}));
     EXPECT_EQ(*quad.FindModule(hip + 5),
-              (ModuleParams{hip + 5, 0.186096234105, 0.174561075651, 0.3,
+              (ModuleParams{hip + 5, 0.186096234105, -0.174561075651, 0.3,
                             -1.57, 1.57}));
     EXPECT_EQ(quad.bluetooth_parent.at(hip), 4);
     EXPECT_EQ(quad.bluetooth_parent.at(hip + 5), hip);
     ASSERT_NE(quad.FindCoupling(hip, (hip + 1) % 4), nullptr);
-    EXPECT_EQ(quad.FindCoupling(hip, (hip + 1) % 4)->phase, 3.14159265358979);
-    EXPECT_EQ(quad.FindCoupling((hip + 1) % 4, hip)->phase, -3.14159265358979);
-    EXPECT_EQ(quad.FindCoupling(hip, hip + 5)->phase, 1.5707963267949);
-    EXPECT_EQ(quad.FindCoupling(hip + 5, hip)->phase, -1.5707963267949);
+    EXPECT_EQ(quad.FindCoupling(hip, (hip + 1) % 4)->phase, 1.5707963267949);
+    EXPECT_EQ(quad.FindCoupling((hip + 1) % 4, hip)->phase, -1.5707963267949);
+    EXPECT_EQ(quad.FindCoupling(hip, hip + 5)->phase, 4.71238898038469);
+    EXPECT_EQ(quad.FindCoupling(hip + 5, hip)->phase, -4.71238898038469);
   }
   EXPECT_EQ(*quad.FindModule(4), (ModuleParams{4, 0, 0, 0, -1.57, 1.57}));
   EXPECT_EQ(quad.couplings.size(), 16u);

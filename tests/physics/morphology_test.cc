@@ -113,21 +113,26 @@ std::vector<BadCase> BadCases() {
        "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\" free=\"true\"/>\n"
        "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"rear\"/>\n</morphology>",
        {"test.xml:4", "idfrom=\"1\"", "free"}},
-      {"overlap",
-       // Two modules on the central's left and top faces at angles that make
-       // their 60 mm wide handles collide at the edge between the faces.
+      {"overlap_handles",
+       // Modules on the central's left and rear faces: their 60 mm wide handle
+       // crossbars collide at the edge between the two faces.
        "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\"/>\n<module id=\"2\"/>\n"
-       "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"left\" angle=\"90\"/>\n"
-       "<connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"top\" angle=\"90\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"left\" angle=\"0\"/>\n"
+       "<connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"rear\" angle=\"0\"/>\n"
        "</morphology>",
-       {"test.xml:6", "module id=\"2\"", "overlaps module id=\"1\""}},
-      {"overlap_direct",
-       // Module 2 screwed onto module 1's rear lands inside the central module.
-       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\"/>\n<module id=\"2\"/>\n"
-       "<connect idfrom=\"1\" connfrom=\"rear\" idto=\"0\" connto=\"top\" angle=\"0\"/>\n"
-       "<connect idfrom=\"2\" connfrom=\"top\" idto=\"1\" connto=\"front\" angle=\"0\"/>\n"
+       {"test.xml:6", "module id=\"2\" (crossbar)", "overlaps module id=\"1\" (crossbar)"}},
+      {"overlap_bodies",
+       // A chain that climbs up behind the central module and comes back down
+       // onto it: module 4 lands inside module 0.
+       "<morphology central=\"0\">\n"
+       "<module id=\"0\"/><module id=\"1\"/><module id=\"2\"/><module id=\"3\"/>\n"
+       "<module id=\"4\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"front\" idto=\"0\" connto=\"rear\"/>\n"
+       "<connect idfrom=\"2\" connfrom=\"front\" idto=\"1\" connto=\"top\"/>\n"
+       "<connect idfrom=\"3\" connfrom=\"front\" idto=\"2\" connto=\"top\"/>\n"
+       "<connect idfrom=\"4\" connfrom=\"front\" idto=\"3\" connto=\"top\"/>\n"
        "</morphology>",
-       {"test.xml:6", "module id=\"2\"", "overlaps"}},
+       {"test.xml:7", "module id=\"4\"", "overlaps module id=\"0\" (body)"}},
   };
 }
 
@@ -152,7 +157,7 @@ TEST(MorphologyTest, LoopClosureMustAgree) {
     FAIL() << "inconsistent loop accepted";
   } catch (const Error& error) {
     EXPECT_EQ(error.code(), StatusCode::kInvalidArgument);
-    EXPECT_THAT(error.what(), AllOf(HasSubstr("closes a loop"), HasSubstr("idfrom=\"3\"")));
+    EXPECT_THAT(error.what(), AllOf(HasSubstr("<built>:"), HasSubstr("closes a loop")));
   }
 }
 
