@@ -328,8 +328,7 @@ struct World::Impl {
     dWorldSetCFM(world, kJointCfm);
     dWorldSetAutoDisableFlag(world, 0);
     dWorldSetQuickStepNumIterations(world, options.iterations);
-    space = dHashSpaceCreate(nullptr);
-    dHashSpaceSetLevels(space, -5, 1);
+    space = dSimpleSpaceCreate(nullptr);
     contacts = dJointGroupCreate(0);
     ground = dCreatePlane(space, 0, 0, 1, 0);
     dGeomSetData(ground, nullptr);

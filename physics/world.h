@@ -32,7 +32,7 @@ enum class StepMethod {
 /// Settings of a world (defaults documented in docs/module.md).
 /// Thread-safety: plain value.
 struct WorldOptions {
-  double time_step = 0.001;        ///< Fixed step, s.
+  double time_step = 0.002;        ///< Fixed step, s (see docs/benchmarks.md for why 2 ms).
   StepMethod step_method = StepMethod::kExact;  ///< Solver.
   int iterations = 20;             ///< Iterations per step for kIterative.
   double gravity = 9.81;           ///< Magnitude of gravity, m/s².

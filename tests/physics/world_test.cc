@@ -73,9 +73,10 @@ TEST(WorldTest, EveryRobotRestsOnTheGround) {
     World world(Morphology::LoadFile(entry.path()));
     EXPECT_NEAR(world.LowestPoint(), world.options().drop_gap, 1e-9);
     EXPECT_NEAR(world.CentralPosition().head<2>().norm(), 0, 1e-9);
-    world.Step(1500);
+    const double dt = world.options().time_step;
+    world.Step(static_cast<int>(std::lround(1.5 / dt)));
     const Eigen::Vector3d before = world.CentralPosition();
-    world.Step(500);
+    world.Step(static_cast<int>(std::lround(0.5 / dt)));
     ASSERT_FALSE(world.Diverged()) << world.Divergence().reason;
     EXPECT_NEAR(world.Time(), 2.0, 1e-9);
     // Settled: the central module no longer moves and the robot sits on the
