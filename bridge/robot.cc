@@ -9,9 +9,19 @@
 
 #include "common/log.h"
 #include "common/status.h"
+#include "physics/module.h"
 
 namespace yamor::bridge {
 namespace {
+
+// The wire's connector codes and physics' enum are the same list in the same
+// order (docs/snp.md, physics/module.h); casting between them relies on it.
+static_assert(static_cast<int>(snp::Connector::kFront) == static_cast<int>(physics::ConnectorId::kFront));
+static_assert(static_cast<int>(snp::Connector::kRear) == static_cast<int>(physics::ConnectorId::kRear));
+static_assert(static_cast<int>(snp::Connector::kLeft) == static_cast<int>(physics::ConnectorId::kLeft));
+static_assert(static_cast<int>(snp::Connector::kRight) == static_cast<int>(physics::ConnectorId::kRight));
+static_assert(static_cast<int>(snp::Connector::kTop) == static_cast<int>(physics::ConnectorId::kTop));
+static_assert(static_cast<int>(snp::Connector::kBottom) == static_cast<int>(physics::ConnectorId::kBottom));
 
 using snp::Address;
 
@@ -330,9 +340,15 @@ void Robot::HandleBridgeCommand(const snp::Message& message, std::vector<snp::Fr
       link_parent_.clear();
       for (auto& [id, fw] : firmware_) fw.links.clear();
       reply(snp::SpecialAck{.acked = type});
-    } else if (std::holds_alternative<snp::ConnectModules>(message) ||
-               std::holds_alternative<snp::DisconnectModule>(message)) {
-      fail(StatusCode::kUnimplemented, "dynamic reconfiguration is not available in this build");
+    } else if (const auto* m = std::get_if<snp::ConnectModules>(&message)) {
+      // The world is frozen while the module is placed and joined (physics).
+      world_.Connect(m->from, static_cast<physics::ConnectorId>(m->from_connector), m->to,
+                     static_cast<physics::ConnectorId>(m->to_connector), m->angle_index);
+      reply(snp::SpecialAck{.acked = type});
+    } else if (const auto* m = std::get_if<snp::DisconnectModule>(&message)) {
+      // Put away, as the thesis's Physical Links window did (C.2.7).
+      world_.Disconnect(m->module, /*put_away=*/true);
+      reply(snp::SpecialAck{.acked = type});
     } else if (std::holds_alternative<snp::ResetSimulation>(message)) {
       Reset();
       reply(snp::SpecialAck{.acked = type});

@@ -204,6 +204,32 @@ TEST(BridgeRobotTest, BridgeCommands) {
   EXPECT_EQ(robot.Time(), 0.0);
 }
 
+TEST(BridgeRobotTest, PhysicalLinksThroughSpecialCommands) {
+  Robot robot(SnakeMorphology());
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::DisconnectModule{.module = 8}));
+  EXPECT_FALSE(robot.world().IsConnected(8));
+  // The central module cannot be taken off.
+  auto error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::DisconnectModule{.module = 0}));
+  EXPECT_EQ(error.code, StatusCode::kFailedPrecondition);
+  // Put it back where it was: tail handle into module 7's rear.
+  SendExpect<snp::SpecialAck>(
+      robot, ToBridge(snp::ConnectModules{.from = 8, .from_connector = snp::Connector::kFront,
+                                          .to = 7, .to_connector = snp::Connector::kRear,
+                                          .angle_index = 0}));
+  EXPECT_TRUE(robot.world().IsConnected(8));
+  // A connector in use is refused with the reason.
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::DisconnectModule{.module = 8}));
+  error = SendExpect<snp::SpecialError>(
+      robot, ToBridge(snp::ConnectModules{.from = 8, .from_connector = snp::Connector::kFront,
+                                          .to = 6, .to_connector = snp::Connector::kRear,
+                                          .angle_index = 0}));
+  EXPECT_EQ(error.acked, snp::MessageType::kConnectModules);
+  EXPECT_EQ(error.code, StatusCode::kFailedPrecondition);
+  EXPECT_FALSE(error.text.empty());
+  error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::DisconnectModule{.module = 77}));
+  EXPECT_EQ(error.code, StatusCode::kNotFound);
+}
+
 TEST(BridgeRobotTest, BytesInBytesOut) {
   Robot robot(SnakeMorphology());
   std::vector<uint8_t> in = {0x00, 0xA5, 0x13, 0x37};  // garbage, incl. a start byte
