@@ -279,7 +279,9 @@ std::optional<snp::Message> Robot::Apply(ModuleFirmware& fw, const snp::Message&
     return snp::ServoAngle{.angle = static_cast<float>(world_.ServoAngle(fw.id))};
   }
   if (const auto* m = std::get_if<snp::ReadAccelerometer>(&message)) {
-    if (!fw.uart) return MakeAck(type, StatusCode::kFailedPrecondition);
+    if (!fw.uart || world_.Presence(fw.id) == physics::ModulePresence::kPutAway) {
+      return MakeAck(type, StatusCode::kFailedPrecondition);
+    }
     auto& history = accelerometer_history_[fw.id];
     if (history.empty()) history.push_back(world_.Accelerometer(fw.id));
     snp::Accelerometer reply;
@@ -348,6 +350,7 @@ void Robot::HandleBridgeCommand(const snp::Message& message, std::vector<snp::Fr
     } else if (const auto* m = std::get_if<snp::DisconnectModule>(&message)) {
       // Put away, as the thesis's Physical Links window did (C.2.7).
       world_.Disconnect(m->module, /*put_away=*/true);
+      accelerometer_history_.erase(m->module);
       reply(snp::SpecialAck{.acked = type});
     } else if (std::holds_alternative<snp::ResetSimulation>(message)) {
       Reset();
@@ -414,7 +417,8 @@ void Robot::StepOnce(std::vector<snp::Frame>& events) {
       std::max(1.0, std::round(kAccelerometerPeriod / world_.options().time_step)));
   if (world_.StepCount() % period_steps == 0) {
     for (const auto& [id, fw] : firmware_) {
-      if (!fw.uart) continue;
+      // A module put away has no sensor in the world to read.
+      if (!fw.uart || world_.Presence(id) == physics::ModulePresence::kPutAway) continue;
       auto& history = accelerometer_history_[id];
       history.push_back(world_.Accelerometer(id));
       if (history.size() > kAccelerometerHistory) history.pop_front();

@@ -206,8 +206,14 @@ TEST(BridgeRobotTest, BridgeCommands) {
 
 TEST(BridgeRobotTest, PhysicalLinksThroughSpecialCommands) {
   Robot robot(SnakeMorphology());
+  Configure(robot, SnakeConfig());  // UARTs on: sensors are sampled
   SendExpect<snp::SpecialAck>(robot, ToBridge(snp::DisconnectModule{.module = 8}));
   EXPECT_FALSE(robot.world().IsConnected(8));
+  // The robot runs on without the module; its sensor is gone.
+  std::vector<snp::Frame> events;
+  robot.Advance(0.5, events);
+  auto refused = SendExpect<snp::Ack>(robot, ToModule(8, snp::ReadAccelerometer{.sample_count = 1}));
+  EXPECT_EQ(refused.status, StatusCode::kFailedPrecondition);
   // The central module cannot be taken off.
   auto error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::DisconnectModule{.module = 0}));
   EXPECT_EQ(error.code, StatusCode::kFailedPrecondition);

@@ -1,0 +1,49 @@
+// The byte/frame transport between the robot driver and one robot: the
+// in-process simulation (SimBackend), a serial link to real hardware (a later
+// issue), or a scripted fake in tests. Every backend carries SNP frames, so
+// the same bytes drive the simulation and the real robot (DESIGN.md).
+#pragma once
+
+#include <chrono>
+#include <optional>
+#include <string>
+
+#include "proto/snp/frame.h"
+
+namespace yamor::bridge {
+class Robot;
+}  // namespace yamor::bridge
+
+namespace yamor::host {
+
+/// One robot link. The driver sends frames with Send and collects the robot's
+/// replies and events with Receive.
+///
+/// Thread-safety: implementations need not be thread-safe; the RobotDriver
+/// serialises every call under its mutex.
+class Backend {
+ public:
+  virtual ~Backend() = default;
+
+  /// Sends one frame to the robot. Throws yamor::Error(UNAVAILABLE) when the
+  /// link is gone.
+  virtual void Send(const snp::Frame& frame) = 0;
+
+  /// The next frame from the robot, waiting up to `timeout` for one. A
+  /// synchronous backend (the simulation) has its replies ready as soon as
+  /// Send returns, so it never waits: nullopt means no reply will come.
+  virtual std::optional<snp::Frame> Receive(std::chrono::milliseconds timeout) = 0;
+
+  /// True for a simulated robot: bridge commands (time, step, position,
+  /// reset) are answered and virtual time advances only when stepped.
+  virtual bool IsSimulation() const = 0;
+
+  /// Short name for logs and GetInfo ("simulation", "serial", "fake").
+  virtual std::string Name() const = 0;
+
+  /// The simulated robot for what SNP does not carry (faults, ground,
+  /// morphology, divergence), or nullptr for hardware and fakes.
+  virtual bridge::Robot* SimulatedRobot() { return nullptr; }
+};
+
+}  // namespace yamor::host

@@ -1,0 +1,1115 @@
+#include "host/driver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "bridge/robot.h"
+#include "common/log.h"
+#include "common/status.h"
+#include "cpg/config_xml.h"
+#include "host/sim_backend.h"
+#include "physics/script.h"
+#include "physics/world.h"
+
+namespace yamor::host {
+namespace {
+
+using snp::Address;
+using Clock = std::chrono::steady_clock;
+
+// Scripts come with physics connector ids; the wire uses SNP's: same numbering.
+static_assert(static_cast<int>(physics::ConnectorId::kFront) == static_cast<int>(snp::Connector::kFront) &&
+              static_cast<int>(physics::ConnectorId::kRear) == static_cast<int>(snp::Connector::kRear) &&
+              static_cast<int>(physics::ConnectorId::kLeft) == static_cast<int>(snp::Connector::kLeft) &&
+              static_cast<int>(physics::ConnectorId::kRight) == static_cast<int>(snp::Connector::kRight) &&
+              static_cast<int>(physics::ConnectorId::kTop) == static_cast<int>(snp::Connector::kTop) &&
+              static_cast<int>(physics::ConnectorId::kBottom) == static_cast<int>(snp::Connector::kBottom));
+
+constexpr std::size_t kMaxEvents = 1024;
+constexpr double kMinTimeStep = 1e-5;
+constexpr double kMaxTimeStep = 0.02;
+constexpr double kMaxLinkTimeout = 120.0;
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+std::string Id(int id) { return std::to_string(id); }
+
+std::chrono::milliseconds ToMillis(double seconds) {
+  return std::chrono::milliseconds(static_cast<int64_t>(std::ceil(std::max(0.0, seconds) * 1e3)));
+}
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+[[noreturn]] void ThrowShutdown(std::string_view what) {
+  throw Error(StatusCode::kUnavailable, std::string(what) + " interrupted: yamord is shutting down");
+}
+
+physics::MotorFault ToFault(MotorDefect defect) {
+  switch (defect) {
+    case MotorDefect::kLimp: return physics::MotorFault::kLimp;
+    case MotorDefect::kStuck: return physics::MotorFault::kStuck;
+    case MotorDefect::kNone: break;
+  }
+  return physics::MotorFault::kNone;
+}
+
+std::string_view DefectName(MotorDefect defect) {
+  switch (defect) {
+    case MotorDefect::kLimp: return "limp";
+    case MotorDefect::kStuck: return "stuck";
+    case MotorDefect::kNone: break;
+  }
+  return "ok";
+}
+
+}  // namespace
+
+int RobotDriver::PendingModule::Count() const {
+  return ((amplitude || offset || speed) ? 1 : 0) + (limits ? 1 : 0) + (clear_couplings ? 1 : 0) +
+         static_cast<int>(couplings.size());
+}
+
+RobotDriver::RobotDriver(DriverOptions options, cpg::RobotConfig config)
+    : options_(std::move(options)), config_(std::move(config)) {
+  cpg::Validate(config_);
+  if (!(options_.sleep_chunk > 0.0) || !std::isfinite(options_.sleep_chunk)) {
+    throw Error(StatusCode::kInvalidArgument, "sleep chunk must be finite and > 0");
+  }
+  if (!(options_.link_timeout > 0.0) || !(options_.reply_timeout > 0.0)) {
+    throw Error(StatusCode::kInvalidArgument, "link and reply timeouts must be > 0");
+  }
+  std::vector<int> ids;
+  for (const auto& m : config_.modules) ids.push_back(m.id);
+  options_.id_map.CheckInjective(ids);
+}
+
+RobotDriver::~RobotDriver() {
+  Shutdown();
+  if (free_run_thread_.joinable()) free_run_thread_.join();
+}
+
+// ---- Helpers -----------------------------------------------------------------
+
+Backend& RobotDriver::RequireBackendLocked(std::string_view what) const {
+  if (shutdown_) ThrowShutdown(what);
+  if (!backend_) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "no simulation open: call OpenSimulation first (needed by " + std::string(what) +
+                    ")");
+  }
+  return *backend_;
+}
+
+bridge::Robot& RobotDriver::RequireSimulatedRobotLocked(std::string_view what) const {
+  Backend& backend = RequireBackendLocked(what);
+  bridge::Robot* robot = backend.SimulatedRobot();
+  if (robot == nullptr) {
+    throw Error(StatusCode::kUnimplemented, std::string(what) + " needs a simulated robot; the " +
+                                                backend.Name() + " backend has none");
+  }
+  return *robot;
+}
+
+void RobotDriver::RequireConnectedLocked(std::string_view what) const {
+  if (!connected_) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "robot not connected: call ConnectRobot first (needed by " + std::string(what) +
+                    ")");
+  }
+}
+
+int RobotDriver::Wire(int real) const {
+  return backend_ && backend_->IsSimulation() ? options_.id_map.ToSim(real) : real;
+}
+
+int RobotDriver::Real(int wire) const {
+  return backend_ && backend_->IsSimulation() ? options_.id_map.ToReal(wire) : wire;
+}
+
+snp::Message RobotDriver::ToWire(const snp::Message& message) const {
+  auto wire8 = [this](int real) { return static_cast<uint8_t>(Wire(real)); };
+  snp::Message out = message;
+  if (auto* m = std::get_if<snp::ConnectRequest>(&out)) m->child = wire8(m->child);
+  if (auto* m = std::get_if<snp::SetCoupling>(&out)) m->to = wire8(m->to);
+  if (auto* m = std::get_if<snp::SetMasterNode>(&out)) m->module = wire8(m->module);
+  if (auto* m = std::get_if<snp::DisconnectModule>(&out)) m->module = wire8(m->module);
+  if (auto* m = std::get_if<snp::ConnectModules>(&out)) {
+    m->from = wire8(m->from);
+    m->to = wire8(m->to);
+  }
+  return out;
+}
+
+std::optional<snp::Message> RobotDriver::ModuleRequestLocked(int id, const snp::Message& message,
+                                                             snp::MessageType reply,
+                                                             double timeout) {
+  Backend& backend = *backend_;
+  const int wire = Wire(id);
+  const snp::Message wire_message = ToWire(message);
+  const snp::MessageType type = snp::TypeOf(message);
+  backend.Send(snp::MakeFrame(Address::Host(), Address::Module(static_cast<uint8_t>(wire)),
+                              wire_message));
+  const Clock::time_point deadline = Clock::now() + ToMillis(timeout);
+  while (true) {
+    const auto remaining =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+    std::optional<snp::Frame> frame =
+        backend.Receive(std::max(std::chrono::milliseconds(0), remaining));
+    if (!frame) return std::nullopt;  // the backend waited `remaining` for nothing
+    if (frame->source != Address::Module(static_cast<uint8_t>(wire)) ||
+        frame->destination.kind != snp::NodeKind::kHost) {
+      HandleUnsolicitedLocked(*frame);
+      continue;
+    }
+    snp::Message m;
+    try {
+      m = snp::DecodeMessage(*frame);
+    } catch (const Error& e) {
+      Log().warn("driver: undecodable reply from module {}: {}", id, e.what());
+      continue;
+    }
+    if (const auto* ack = std::get_if<snp::Ack>(&m); ack && ack->acked == type) {
+      if (ack->status != StatusCode::kOk) {
+        throw Error(ack->status, "module " + Id(id) + " refused " +
+                                     std::string(snp::MessageTypeName(type)) + " (" +
+                                     std::string(StatusCodeName(ack->status)) + ")");
+      }
+      if (reply == snp::MessageType::kAck) return m;
+    }
+    if (snp::TypeOf(m) == reply && reply != snp::MessageType::kAck) {
+      if (const auto* ack = std::get_if<snp::ConnectAck>(&m)) {
+        // A late answer to an earlier link attempt is not ours.
+        if (ack->child != std::get<snp::ConnectRequest>(wire_message).child) continue;
+        snp::ConnectAck real = *ack;
+        real.child = static_cast<uint8_t>(Real(ack->child));
+        return real;
+      }
+      return m;
+    }
+    HandleUnsolicitedLocked(*frame);
+  }
+}
+
+snp::Message RobotDriver::ModuleCallLocked(int id, const snp::Message& message,
+                                           snp::MessageType reply) {
+  std::optional<snp::Message> m = ModuleRequestLocked(id, message, reply, options_.reply_timeout);
+  if (!m) {
+    throw Error(StatusCode::kUnavailable,
+                "module " + Id(id) + " did not answer " +
+                    std::string(snp::MessageTypeName(snp::TypeOf(message))) +
+                    (backend_->IsSimulation() ? "" : " within " + Num(options_.reply_timeout) + " s") +
+                    " (is it linked? the robot may be half-configured)");
+  }
+  return *m;
+}
+
+snp::Message RobotDriver::BridgeRequestLocked(const snp::Message& message,
+                                              snp::MessageType reply) {
+  Backend& backend = *backend_;
+  const snp::MessageType type = snp::TypeOf(message);
+  backend.Send(snp::MakeFrame(Address::Host(), Address::Bridge(), ToWire(message)));
+  const Clock::time_point deadline = Clock::now() + ToMillis(options_.reply_timeout);
+  while (true) {
+    const auto remaining =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+    std::optional<snp::Frame> frame =
+        backend.Receive(std::max(std::chrono::milliseconds(0), remaining));
+    if (!frame) {
+      throw Error(StatusCode::kUnavailable, "the " + backend.Name() + " backend did not answer " +
+                                                std::string(snp::MessageTypeName(type)));
+    }
+    if (frame->source.kind != snp::NodeKind::kBridge) {
+      HandleUnsolicitedLocked(*frame);
+      continue;
+    }
+    snp::Message m;
+    try {
+      m = snp::DecodeMessage(*frame);
+    } catch (const Error& e) {
+      Log().warn("driver: undecodable bridge reply: {}", e.what());
+      continue;
+    }
+    if (const auto* error = std::get_if<snp::SpecialError>(&m); error && error->acked == type) {
+      throw Error(error->code, std::string(snp::MessageTypeName(type)) + " failed: " + error->text);
+    }
+    if (const auto* ack = std::get_if<snp::SpecialAck>(&m);
+        ack && ack->acked == type && reply == snp::MessageType::kSpecialAck) {
+      return m;
+    }
+    if (snp::TypeOf(m) == reply && reply != snp::MessageType::kSpecialAck) return m;
+    HandleUnsolicitedLocked(*frame);
+  }
+}
+
+void RobotDriver::HandleUnsolicitedLocked(const snp::Frame& frame) {
+  Log().debug("driver: ignoring {} from {}", snp::MessageTypeName(frame.type),
+              snp::ToString(frame.source));
+}
+
+void RobotDriver::CheckDivergedLocked() {
+  if (diverged_) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "world diverged (" + divergence_ + "): call ResetSimulation or OpenSimulation");
+  }
+  bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr;
+  if (robot == nullptr || !robot->world().Diverged()) return;
+  const physics::DivergenceInfo& info = robot->world().Divergence();
+  diverged_ = true;
+  divergence_ = info.reason + " at t = " + Num(robot->Time()) + " s";
+  PushEvent(StateEvent{.kind = "diverged",
+                       .module_id = info.module_id >= 0 ? Real(info.module_id) : -1,
+                       .detail = divergence_});
+  throw Error(StatusCode::kFailedPrecondition,
+              "world diverged (" + divergence_ + "): call ResetSimulation or OpenSimulation");
+}
+
+void RobotDriver::StepLocked(double seconds) {
+  CheckDivergedLocked();
+  try {
+    const snp::Message m = BridgeRequestLocked(snp::Step{.duration = seconds},
+                                               snp::MessageType::kStepDone);
+    sim_time_ = std::get<snp::StepDone>(m).time;
+  } catch (const Error&) {
+    CheckDivergedLocked();  // a divergence explains the failure better
+    throw;
+  }
+  CheckDivergedLocked();
+  if (watchers_.load() > 0) RecordSampleLocked();
+}
+
+void RobotDriver::RecordSampleLocked() {
+  try {
+    const snp::Message m =
+        BridgeRequestLocked(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
+    const auto& p = std::get<snp::RobotPosition>(m);
+    RobotPose pose{.time = p.time, .position = p.position, .orientation = p.orientation,
+                   .source = "simulation"};
+    {
+      std::lock_guard<std::mutex> lock(watch_mutex_);
+      latest_sample_ = pose;
+      ++sample_seq_;
+    }
+    watch_cv_.notify_all();
+  } catch (const Error& e) {
+    Log().debug("driver: no state sample: {}", e.what());
+  }
+}
+
+void RobotDriver::PushEvent(StateEvent event) {
+  Log().info("event {}{}{}", event.kind,
+             event.module_id >= 0 ? " module " + Id(event.module_id) : std::string(),
+             event.detail.empty() ? std::string() : ": " + event.detail);
+  {
+    std::lock_guard<std::mutex> lock(watch_mutex_);
+    events_.emplace_back(next_event_seq_++, std::move(event));
+    while (events_.size() > kMaxEvents) events_.pop_front();
+  }
+  watch_cv_.notify_all();
+}
+
+void RobotDriver::CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
+                                                const physics::Morphology& morphology) const {
+  std::vector<int> ids;
+  for (const cpg::ModuleParams& m : config.modules) ids.push_back(m.id);
+  options_.id_map.CheckInjective(ids);
+  for (const cpg::ModuleParams& m : config.modules) {
+    const int sim = options_.id_map.ToSim(m.id);
+    if (!morphology.Contains(sim) || morphology.Module(sim).free) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "module " + Id(m.id) + " of the configuration" +
+                      (sim != m.id ? " (simulation id " + Id(sim) + ")" : std::string()) +
+                      (morphology.Contains(sim) ? " is a free module of world "
+                                                : " is not in world ") +
+                      morphology.source());
+    }
+  }
+}
+
+void RobotDriver::ResetRobotStateLocked() {
+  connected_ = false;
+  diverged_ = false;
+  divergence_.clear();
+  sim_time_ = 0.0;
+  motor_defects_.clear();
+  module_defects_.clear();
+  slope_ = 0.0;
+  slope_direction_ = 0.0;
+  pending_.clear();
+}
+
+void RobotDriver::MarkAllPendingLocked() {
+  pending_.clear();
+  for (const cpg::ModuleParams& m : config_.modules) {
+    PendingModule& p = pending_[m.id];
+    p.amplitude = p.offset = p.speed = p.limits = p.clear_couplings = true;
+  }
+  for (const cpg::Coupling& c : config_.couplings) pending_[c.from].couplings.insert(c.to);
+}
+
+// ---- Backend -------------------------------------------------------------------
+
+OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
+  double time_step = spec.time_step == 0.0 ? physics::WorldOptions().time_step : spec.time_step;
+  if (!std::isfinite(time_step)) {
+    throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + Num(time_step));
+  }
+  if (time_step < kMinTimeStep || time_step > kMaxTimeStep) {
+    throw Error(StatusCode::kOutOfRange, "time step " + Num(time_step) + " s is outside [" +
+                                             Num(kMinTimeStep) + ", " + Num(kMaxTimeStep) + "]");
+  }
+  Lock lock(mutex_);
+  if (shutdown_) ThrowShutdown("OpenSimulation");
+  cpg::RobotConfig config = spec.config ? *spec.config : config_;
+  CheckConfigAgainstWorldLocked(config, spec.morphology);
+  if (options_.master && !spec.morphology.Contains(options_.id_map.ToSim(*options_.master))) {
+    throw Error(StatusCode::kInvalidArgument, "the master node setting " + Id(*options_.master) +
+                                                  " is not a module of world " +
+                                                  spec.morphology.source());
+  }
+  bridge::RobotOptions robot_options;
+  robot_options.world.time_step = time_step;
+  robot_options.world.seed = spec.seed;
+  robot_options.phase_seed = spec.seed;
+  robot_options.master = options_.id_map.ToSim(options_.master.value_or(config.master_id));
+  auto backend = std::make_unique<SimBackend>(std::move(spec.morphology), robot_options);
+  const physics::World& world = backend->SimulatedRobot()->world();
+  OpenedSimulation opened;
+  for (int sim : world.ModuleIds()) opened.module_ids.push_back(options_.id_map.ToReal(sim));
+  opened.central_module = options_.id_map.ToReal(world.CentralModule());
+
+  backend_ = std::move(backend);
+  config_ = std::move(config);
+  world_name_ = spec.world_name;
+  ResetRobotStateLocked();
+  time_step_ = time_step;
+  attached_at_ = Clock::now();
+  PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
+  if (watchers_.load() > 0) RecordSampleLocked();
+  wake_.notify_all();
+  return opened;
+}
+
+void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string world_name) {
+  YAMOR_CHECK(backend != nullptr, "AttachBackend needs a backend");
+  Lock lock(mutex_);
+  backend_ = std::move(backend);
+  world_name_ = std::move(world_name);
+  ResetRobotStateLocked();
+  time_step_ = backend_->SimulatedRobot() ? backend_->SimulatedRobot()->world().options().time_step
+                                          : physics::WorldOptions().time_step;
+  attached_at_ = Clock::now();
+  PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
+}
+
+void RobotDriver::CloseSimulation() {
+  Lock lock(mutex_);
+  if (!backend_) return;
+  backend_.reset();
+  world_name_.clear();
+  ResetRobotStateLocked();
+  PushEvent(StateEvent{.kind = "closed"});
+}
+
+bool RobotDriver::SimulationModeEnabled() const {
+  Lock lock(mutex_);
+  return backend_ && backend_->IsSimulation();
+}
+
+void RobotDriver::ResetSimulation() {
+  Lock lock(mutex_);
+  Backend& backend = RequireBackendLocked("ResetSimulation");
+  if (bridge::Robot* robot = backend.SimulatedRobot()) {
+    for (int id : module_defects_) robot->SetModuleDefect(Wire(id), false);
+  }
+  BridgeRequestLocked(snp::ResetSimulation{}, snp::MessageType::kSpecialAck);
+  ResetRobotStateLocked();
+  PushEvent(StateEvent{.kind = "reset"});
+  if (watchers_.load() > 0) RecordSampleLocked();
+}
+
+physics::Morphology RobotDriver::GetMorphology() const {
+  Lock lock(mutex_);
+  return RequireSimulatedRobotLocked("GetMorphology").world().morphology();
+}
+
+// ---- Configuration ---------------------------------------------------------------
+
+void RobotDriver::LoadConfig(std::string_view xml, std::string_view source_name) {
+  cpg::RobotConfig config =
+      cpg::ParseConfigXml(xml, source_name.empty() ? "<request>" : source_name);
+  Lock lock(mutex_);
+  if (bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr) {
+    CheckConfigAgainstWorldLocked(config, robot->world().morphology());
+  } else {
+    std::vector<int> ids;
+    for (const cpg::ModuleParams& m : config.modules) ids.push_back(m.id);
+    options_.id_map.CheckInjective(ids);
+  }
+  if (config.bluetooth_parent != config_.bluetooth_parent || config.master_id != config_.master_id) {
+    connected_ = false;  // the network to build is another one
+  }
+  config_ = std::move(config);
+  MarkAllPendingLocked();
+  PushEvent(StateEvent{.kind = "config_loaded", .detail = std::string(source_name)});
+}
+
+std::string RobotDriver::SaveConfig() const {
+  Lock lock(mutex_);
+  return cpg::WriteConfigXml(config_);
+}
+
+cpg::RobotConfig RobotDriver::Config() const {
+  Lock lock(mutex_);
+  return config_;
+}
+
+std::vector<int> RobotDriver::GetAllModulesId() const {
+  Lock lock(mutex_);
+  std::vector<int> ids;
+  for (const cpg::ModuleParams& m : config_.modules) ids.push_back(m.id);
+  return ids;
+}
+
+double RobotDriver::GetModuleValue(int id, ModuleField field) const {
+  Lock lock(mutex_);
+  return GetModuleField(config_, id, field);
+}
+
+void RobotDriver::SetModuleValue(int id, ModuleField field, double value) {
+  Lock lock(mutex_);
+  SetModuleField(config_, id, field, value);
+  PendingModule& p = pending_[id];
+  switch (field) {
+    case ModuleField::kAmplitude: p.amplitude = true; break;
+    case ModuleField::kOffset: p.offset = true; break;
+    case ModuleField::kSpeed: p.speed = true; break;
+    case ModuleField::kMinAngle:
+    case ModuleField::kMaxAngle: p.limits = true; break;
+  }
+}
+
+double RobotDriver::GetCouplingValue(int from, int to, CouplingField field) const {
+  Lock lock(mutex_);
+  return GetCouplingField(config_, from, to, field);
+}
+
+void RobotDriver::SetCouplingValue(int from, int to, CouplingField field, double value) {
+  Lock lock(mutex_);
+  SetCouplingField(config_, from, to, field, value);
+  pending_[from].couplings.insert(to);
+}
+
+void RobotDriver::AddCoupling(int from, int to, double phase, double weight) {
+  Lock lock(mutex_);
+  host::AddCoupling(config_, from, to, phase, weight);
+  pending_[from].couplings.insert(to);
+}
+
+void RobotDriver::RemoveAllCouplings() {
+  Lock lock(mutex_);
+  config_.couplings.clear();
+  for (const cpg::ModuleParams& m : config_.modules) {
+    PendingModule& p = pending_[m.id];
+    p.clear_couplings = true;
+    p.couplings.clear();
+  }
+}
+
+int RobotDriver::PendingChanges() const {
+  Lock lock(mutex_);
+  int n = 0;
+  for (const auto& [id, p] : pending_) n += p.Count();
+  return n;
+}
+
+// ---- Robot ------------------------------------------------------------------------
+
+int RobotDriver::SendModuleConfigLocked(const cpg::ModuleParams& m, const PendingModule* only) {
+  int frames = 0;
+  const bool amplitude = !only || only->amplitude;
+  const bool offset = !only || only->offset;
+  const bool speed = !only || only->speed;
+  if (amplitude || offset || speed) {
+    snp::SetOscillator oscillator;
+    if (amplitude) oscillator.amplitude = static_cast<float>(m.amplitude);
+    if (offset) oscillator.offset = static_cast<float>(m.offset);
+    if (speed) oscillator.speed = static_cast<float>(m.speed);
+    ModuleCallLocked(m.id, oscillator, snp::MessageType::kAck);
+    ++frames;
+  }
+  if (!only || only->limits) {
+    ModuleCallLocked(m.id,
+                     snp::SetLimits{.min_angle = static_cast<float>(m.min_angle),
+                                    .max_angle = static_cast<float>(m.max_angle)},
+                     snp::MessageType::kAck);
+    ++frames;
+  }
+  if (!only || only->clear_couplings) {
+    ModuleCallLocked(m.id, snp::ClearCouplings{}, snp::MessageType::kAck);
+    ++frames;
+  }
+  for (const cpg::Coupling& c : config_.couplings) {
+    if (c.from != m.id || (only && only->couplings.count(c.to) == 0)) continue;
+    ModuleCallLocked(m.id,
+                     snp::SetCoupling{.to = static_cast<uint8_t>(c.to),
+                                      .phase = static_cast<float>(c.phase),
+                                      .weight = static_cast<float>(c.weight)},
+                     snp::MessageType::kAck);
+    ++frames;
+  }
+  return frames;
+}
+
+int RobotDriver::RefreshLocked() {
+  int frames = 0;
+  for (const cpg::ModuleParams& m : config_.modules) {
+    try {
+      frames += SendModuleConfigLocked(m, nullptr);
+    } catch (const Error& e) {
+      MarkAllPendingLocked();
+      throw Error(e.code(), std::string(e.what()) +
+                                "; the configuration was sent only partly (Refresh to retry)");
+    }
+  }
+  pending_.clear();
+  return frames;
+}
+
+ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
+                                        const CancelCheck& cancel) {
+  if (!std::isfinite(link_timeout)) {
+    throw Error(StatusCode::kInvalidArgument, "link timeout is not finite: " + Num(link_timeout));
+  }
+  if (link_timeout < 0.0 || link_timeout > kMaxLinkTimeout) {
+    throw Error(StatusCode::kOutOfRange, "link timeout " + Num(link_timeout) +
+                                             " s is outside [0, " + Num(kMaxLinkTimeout) + "]");
+  }
+  const double timeout = link_timeout > 0.0 ? link_timeout : options_.link_timeout;
+  const Clock::time_point start = Clock::now();
+  Lock lock(mutex_);
+  Backend& backend = RequireBackendLocked("ConnectRobot");
+  const int master = config_.master_id;
+  if (options_.master && *options_.master != master) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "the configuration's bluetooth tree is rooted at module " + Id(master) +
+                    " but the master node setting is " + Id(*options_.master));
+  }
+  connected_ = false;
+  ConnectResult result;
+  if (backend.IsSimulation()) {
+    BridgeRequestLocked(snp::SetMasterNode{.module = static_cast<uint8_t>(master)},
+                        snp::MessageType::kSpecialAck);
+    ++result.frames_sent;
+  }
+  std::map<int, std::vector<int>> children;
+  for (const auto& [child, parent] : config_.bluetooth_parent) children[parent].push_back(child);
+  const int total = static_cast<int>(config_.bluetooth_parent.size());
+  std::deque<int> queue{master};
+  while (!queue.empty()) {
+    const int parent = queue.front();
+    queue.pop_front();
+    for (int child : children[parent]) {
+      const std::string link = "link " + Id(parent) + " -> " + Id(child);
+      const std::string progress =
+          " (" + Id(result.links) + " of " + Id(total) + " links up)";
+      if (shutdown_) ThrowShutdown("ConnectRobot");
+      if (cancel && cancel()) {
+        throw Error(StatusCode::kCancelled, "ConnectRobot cancelled before " + link + progress);
+      }
+      std::optional<snp::Message> reply = ModuleRequestLocked(
+          parent, snp::ConnectRequest{.child = static_cast<uint8_t>(child)},
+          snp::MessageType::kConnectAck, timeout);
+      ++result.frames_sent;
+      if (!reply) {
+        throw Error(StatusCode::kUnavailable, link + " timed out after " + Num(timeout) + " s" +
+                                                  progress);
+      }
+      if (std::get<snp::ConnectAck>(*reply).status != snp::LinkStatus::kUp) {
+        throw Error(StatusCode::kUnavailable, link + " failed: module " + Id(parent) +
+                                                  " could not reach module " + Id(child) +
+                                                  progress);
+      }
+      ++result.links;
+      queue.push_back(child);
+    }
+  }
+  connected_ = true;
+  attached_at_ = backend.IsSimulation() ? attached_at_ : Clock::now();
+  PushEvent(StateEvent{.kind = "connected", .detail = Id(result.links) + " links"});
+  if (!links_only) result.frames_sent += RefreshLocked();
+  result.elapsed = SecondsSince(start);
+  return result;
+}
+
+int RobotDriver::Flush() {
+  Lock lock(mutex_);
+  RequireBackendLocked("Flush");
+  RequireConnectedLocked("Flush");
+  int frames = 0;
+  for (const cpg::ModuleParams& m : config_.modules) {
+    auto it = pending_.find(m.id);
+    if (it == pending_.end()) continue;
+    try {
+      frames += SendModuleConfigLocked(m, &it->second);
+    } catch (const Error& e) {
+      int left = 0;
+      for (const auto& [id, p] : pending_) left += p.Count();
+      throw Error(e.code(), std::string(e.what()) + "; " + Id(left) +
+                                " queued changes not sent (they stay queued)");
+    }
+    pending_.erase(it);
+  }
+  pending_.clear();  // entries of modules no longer configured
+  return frames;
+}
+
+int RobotDriver::Refresh() {
+  Lock lock(mutex_);
+  RequireBackendLocked("Refresh");
+  RequireConnectedLocked("Refresh");
+  return RefreshLocked();
+}
+
+void RobotDriver::SendControlMessage(const ControlMessage& message) {
+  Lock lock(mutex_);
+  RequireBackendLocked("SendControlMessage");
+  std::vector<int> targets;
+  if (message.all) {
+    for (const cpg::ModuleParams& m : config_.modules) targets.push_back(m.id);
+  } else {
+    if (message.module_ids.empty()) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "control message without targets: give module ids or all");
+    }
+    for (int id : message.module_ids) {
+      if (config_.FindModule(id) == nullptr) {
+        throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
+      }
+      if (std::find(targets.begin(), targets.end(), id) == targets.end()) targets.push_back(id);
+    }
+  }
+  RequireConnectedLocked("SendControlMessage");
+  for (int id : targets) {
+    snp::Control control{.uart = message.uart, .cpg = message.cpg, .motors = message.motors};
+    auto defect = motor_defects_.find(id);
+    if (defect != motor_defects_.end() && control.motors == snp::Tristate::kOn) {
+      Log().info("driver: motor-on not forwarded to module {} (motor defect)", id);
+      control.motors = snp::Tristate::kUnchanged;
+    }
+    if (control == snp::Control{}) continue;  // nothing left to change
+    ModuleCallLocked(id, control, snp::MessageType::kAck);
+  }
+}
+
+double RobotDriver::SleepRealTime(double seconds, const CancelCheck& cancel) {
+  const Clock::time_point deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(seconds));
+  {
+    Lock lock(mutex_);  // only to wait on wake_; released while waiting
+    while (Clock::now() < deadline) {
+      if (shutdown_) ThrowShutdown("Sleep");
+      if (cancel && cancel()) throw Error(StatusCode::kCancelled, "Sleep cancelled");
+      wake_.wait_until(lock, std::min(deadline, Clock::now() + std::chrono::milliseconds(50)));
+    }
+  }
+  return ElapsedTime();
+}
+
+double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& cancel) {
+  if (!std::isfinite(seconds)) {
+    throw Error(StatusCode::kInvalidArgument, "sleep duration is not finite: " + Num(seconds));
+  }
+  if (seconds < 0.0 || seconds > options_.max_sleep) {
+    throw Error(StatusCode::kOutOfRange, "sleep duration " + Num(seconds) + " s is outside [0, " +
+                                             Num(options_.max_sleep) + "]");
+  }
+  double target = 0.0;
+  {
+    Lock lock(mutex_);
+    Backend& backend = RequireBackendLocked("Sleep");
+    if (!backend.IsSimulation() || real_time) {
+      lock.unlock();
+      return SleepRealTime(seconds, cancel);
+    }
+    CheckDivergedLocked();
+    target = sim_time_ + seconds;
+  }
+  while (true) {
+    if (shutdown_) ThrowShutdown("Sleep");
+    Lock lock(mutex_);
+    if (cancel && cancel()) {
+      throw Error(StatusCode::kCancelled, "Sleep cancelled at t = " + Num(sim_time_) + " s");
+    }
+    if (!backend_ || !backend_->IsSimulation()) {
+      throw Error(StatusCode::kFailedPrecondition, "the simulation was closed during Sleep");
+    }
+    const double remaining = target - sim_time_;
+    if (remaining < 0.5 * time_step_) return sim_time_;
+    const double before = sim_time_;
+    StepLocked(std::min(remaining, options_.sleep_chunk));
+    if (!(sim_time_ > before)) return sim_time_;  // less than a step left
+  }
+}
+
+double RobotDriver::ElapsedTime() {
+  Lock lock(mutex_);
+  Backend& backend = RequireBackendLocked("ElapsedTime");
+  if (!backend.IsSimulation()) return SecondsSince(attached_at_);
+  const snp::Message m = BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime);
+  sim_time_ = std::get<snp::SimTime>(m).seconds;
+  return sim_time_;
+}
+
+RobotPose RobotDriver::RobotPosition() {
+  Lock lock(mutex_);
+  Backend& backend = RequireBackendLocked("RobotPosition");
+  if (!backend.IsSimulation()) {
+    throw Error(StatusCode::kUnimplemented,
+                "the position of a real robot needs the LED tracker, which is not available yet");
+  }
+  CheckDivergedLocked();
+  const snp::Message m =
+      BridgeRequestLocked(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
+  const auto& p = std::get<snp::RobotPosition>(m);
+  return RobotPose{.time = p.time, .position = p.position, .orientation = p.orientation,
+                   .source = "simulation"};
+}
+
+std::vector<std::pair<int, double>> RobotDriver::GetServoAngles(const std::vector<int>& ids) {
+  Lock lock(mutex_);
+  RequireBackendLocked("GetServoAngles");
+  std::vector<int> targets = ids;
+  if (targets.empty()) {
+    for (const cpg::ModuleParams& m : config_.modules) targets.push_back(m.id);
+  }
+  for (int id : targets) {
+    if (config_.FindModule(id) == nullptr) {
+      throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
+    }
+  }
+  RequireConnectedLocked("GetServoAngles");
+  std::vector<std::pair<int, double>> angles;
+  for (int id : targets) {
+    const snp::Message m =
+        ModuleCallLocked(id, snp::ReadServoAngle{}, snp::MessageType::kServoAngle);
+    angles.emplace_back(id, std::get<snp::ServoAngle>(m).angle);
+  }
+  return angles;
+}
+
+std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int samples) {
+  if (samples == 0) samples = 1;
+  if (samples < 1 || samples > static_cast<int>(snp::kMaxAccelerometerSamples)) {
+    throw Error(StatusCode::kOutOfRange,
+                "accelerometer samples " + Id(samples) + " is outside [1, 16]");
+  }
+  Lock lock(mutex_);
+  Backend& backend = RequireBackendLocked("GetAccelerometer");
+  if (config_.FindModule(id) == nullptr) {
+    throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
+  }
+  RequireConnectedLocked("GetAccelerometer");
+  snp::Message m;
+  try {
+    m = ModuleCallLocked(id, snp::ReadAccelerometer{.sample_count = static_cast<uint8_t>(samples)},
+                         snp::MessageType::kAccelerometer);
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kFailedPrecondition) throw;
+    throw Error(e.code(), std::string(e.what()) + ": switch its UART on with a control message");
+  }
+  const physics::AccelerometerSpec spec =
+      backend.SimulatedRobot() ? backend.SimulatedRobot()->world().options().accelerometer
+                               : physics::AccelerometerSpec();
+  std::vector<AccelerometerSample> out;
+  for (const snp::AccelerometerSample& s : std::get<snp::Accelerometer>(m).samples) {
+    AccelerometerSample sample;
+    sample.counts = {s.x, s.y, s.z};
+    for (int axis = 0; axis < 3; ++axis) {
+      sample.acceleration[axis] = (sample.counts[axis] - spec.zero_count) * spec.count_size;
+    }
+    out.push_back(sample);
+  }
+  return out;
+}
+
+void RobotDriver::SetMotorDefect(int id, MotorDefect defect) {
+  Lock lock(mutex_);
+  if (shutdown_) ThrowShutdown("SetMotorDefect");
+  if (config_.FindModule(id) == nullptr) {
+    throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
+  }
+  bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr;
+  if (defect != MotorDefect::kNone) {
+    if (backend_ && connected_) {
+      ModuleCallLocked(id, snp::Control{.motors = snp::Tristate::kOff}, snp::MessageType::kAck);
+    }
+    if (robot != nullptr) robot->world().SetMotorFault(Wire(id), ToFault(defect));
+    motor_defects_[id] = defect;
+    PushEvent(StateEvent{.kind = "defect_set", .module_id = id,
+                         .detail = "motor " + std::string(DefectName(defect))});
+  } else {
+    if (robot != nullptr) robot->world().SetMotorFault(Wire(id), physics::MotorFault::kNone);
+    motor_defects_.erase(id);
+    PushEvent(StateEvent{.kind = "defect_cleared", .module_id = id, .detail = "motor"});
+  }
+}
+
+void RobotDriver::SetModuleDefect(int id, bool defective) {
+  Lock lock(mutex_);
+  bridge::Robot& robot = RequireSimulatedRobotLocked("SetModuleDefect");
+  const int sim = Wire(id);
+  if (!robot.world().morphology().Contains(sim)) {
+    throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the world");
+  }
+  robot.SetModuleDefect(sim, defective);
+  if (defective) {
+    module_defects_.insert(id);
+  } else {
+    module_defects_.erase(id);
+  }
+  PushEvent(StateEvent{.kind = defective ? "defect_set" : "defect_cleared", .module_id = id,
+                       .detail = "module"});
+}
+
+void RobotDriver::SetGround(const GroundChange& change) {
+  auto check_finite = [](const std::optional<double>& v, std::string_view what) {
+    if (v && !std::isfinite(*v)) {
+      throw Error(StatusCode::kInvalidArgument, std::string(what) + " is not finite: " + Num(*v));
+    }
+  };
+  check_finite(change.friction, "ground friction");
+  check_finite(change.slope, "slope");
+  check_finite(change.slope_direction, "slope direction");
+  if (change.friction && !(*change.friction > 0.0 && *change.friction <= 100.0)) {
+    throw Error(StatusCode::kOutOfRange,
+                "ground friction " + Num(*change.friction) + " is outside (0, 100]");
+  }
+  if (change.slope && !(*change.slope >= 0.0 && *change.slope < M_PI / 2)) {
+    throw Error(StatusCode::kOutOfRange, "slope " + Num(*change.slope) + " rad is outside [0, pi/2)");
+  }
+  if (!change.friction && !change.slope && !change.slope_direction) {
+    throw Error(StatusCode::kInvalidArgument,
+                "ground change without friction, slope or slope direction");
+  }
+  Lock lock(mutex_);
+  bridge::Robot& robot = RequireSimulatedRobotLocked("SetGround");
+  if (change.friction) robot.world().SetGroundFriction(*change.friction);
+  if (change.slope || change.slope_direction) {
+    const double slope = change.slope.value_or(slope_);
+    const double direction = change.slope_direction.value_or(slope_direction_);
+    robot.world().SetSlope(slope, direction);
+    slope_ = slope;
+    slope_direction_ = direction;
+  }
+  PushEvent(StateEvent{.kind = "ground_changed",
+                       .detail = "friction " + Num(robot.world().GroundFriction()) + ", slope " +
+                                 Num(slope_) + " rad towards " + Num(slope_direction_) + " rad"});
+}
+
+void RobotDriver::ConnectModules(int from, snp::Connector from_connector, int to,
+                                 snp::Connector to_connector, double angle_degrees) {
+  if (!std::isfinite(angle_degrees)) {
+    throw Error(StatusCode::kInvalidArgument, "connection angle is not finite");
+  }
+  const double steps = angle_degrees / 15.0;
+  if (angle_degrees < 0.0 || angle_degrees >= 360.0 || std::fabs(steps - std::round(steps)) > 1e-9) {
+    throw Error(StatusCode::kInvalidArgument, "connection angle " + Num(angle_degrees) +
+                                                  " degrees is not a multiple of 15 in [0, 360)");
+  }
+  for (int id : {from, to}) {
+    if (id < 0 || id > cpg::kMaxModuleId) {
+      throw Error(StatusCode::kNotFound, "module " + Id(id) + " does not exist (ids are 0..254)");
+    }
+  }
+  if (from == to) {
+    throw Error(StatusCode::kInvalidArgument, "module " + Id(from) + " cannot connect to itself");
+  }
+  Lock lock(mutex_);
+  RequireBackendLocked("ConnectModules");
+  BridgeRequestLocked(snp::ConnectModules{.from = static_cast<uint8_t>(from),
+                                          .from_connector = from_connector,
+                                          .to = static_cast<uint8_t>(to),
+                                          .to_connector = to_connector,
+                                          .angle_index = static_cast<uint8_t>(std::lround(steps))},
+                      snp::MessageType::kSpecialAck);
+  PushEvent(StateEvent{.kind = "module_connected", .module_id = from,
+                       .detail = "to module " + Id(to)});
+}
+
+void RobotDriver::DisconnectModule(int id) {
+  if (id < 0 || id > cpg::kMaxModuleId) {
+    throw Error(StatusCode::kNotFound, "module " + Id(id) + " does not exist (ids are 0..254)");
+  }
+  Lock lock(mutex_);
+  RequireBackendLocked("DisconnectModule");
+  BridgeRequestLocked(snp::DisconnectModule{.module = static_cast<uint8_t>(id)},
+                      snp::MessageType::kSpecialAck);
+  PushEvent(StateEvent{.kind = "module_disconnected", .module_id = id});
+}
+
+void RobotDriver::RunTransformationScript(std::string_view xml, const CancelCheck& cancel) {
+  // Parsed (and so validated) whole before anything runs; errors carry the line.
+  const physics::TransformationScript script = physics::TransformationScript::Parse(xml, "script");
+  // Each command goes to the robot as SNP, like every other call.
+  for (const physics::ScriptCommand& c : script.commands()) {
+    if (cancel && cancel()) {
+      throw Error(StatusCode::kCancelled, "script cancelled before line " + Id(c.line));
+    }
+    try {
+      switch (c.kind) {
+        case physics::ScriptCommand::Kind::kConnect:
+          ConnectModules(c.connection.from,
+                         static_cast<snp::Connector>(c.connection.from_connector),
+                         c.connection.to, static_cast<snp::Connector>(c.connection.to_connector),
+                         15.0 * c.connection.angle_steps);
+          break;
+        case physics::ScriptCommand::Kind::kDisconnect:
+          DisconnectModule(c.id);
+          break;
+        case physics::ScriptCommand::Kind::kPause:
+          Sleep(c.delay_ms / 1000.0, false, cancel);
+          break;
+      }
+    } catch (const Error& e) {
+      throw Error(e.code(), "script:" + Id(c.line) + ": " + e.what());
+    }
+  }
+}
+
+void RobotDriver::SetFreeRun(double real_time_factor) {
+  if (!std::isfinite(real_time_factor)) {
+    throw Error(StatusCode::kInvalidArgument,
+                "real-time factor is not finite: " + Num(real_time_factor));
+  }
+  if (real_time_factor < 0.0 || real_time_factor > 100.0) {
+    throw Error(StatusCode::kOutOfRange,
+                "real-time factor " + Num(real_time_factor) + " is outside [0, 100]");
+  }
+  Lock lock(mutex_);
+  if (shutdown_) ThrowShutdown("SetFreeRun");
+  if (real_time_factor > 0.0) {
+    Backend& backend = RequireBackendLocked("SetFreeRun");
+    if (!backend.IsSimulation()) {
+      throw Error(StatusCode::kFailedPrecondition, "free-run mode needs a simulation");
+    }
+    if (!free_run_thread_.joinable()) free_run_thread_ = std::thread([this] { FreeRunLoop(); });
+  }
+  free_run_factor_ = real_time_factor;
+  wake_.notify_all();
+}
+
+void RobotDriver::FreeRunLoop() {
+  Lock lock(mutex_);
+  Clock::time_point last = Clock::now();
+  double debt = 0.0;  // simulated seconds owed to the wall clock
+  while (!shutdown_) {
+    wake_.wait_for(lock, std::chrono::milliseconds(20));
+    if (shutdown_) break;
+    const Clock::time_point now = Clock::now();
+    const double wall = std::chrono::duration<double>(now - last).count();
+    last = now;
+    if (free_run_factor_ <= 0.0 || !backend_ || !backend_->IsSimulation() || diverged_) {
+      debt = 0.0;
+      continue;
+    }
+    // A slow machine does not catch up in bursts: at most a quarter second owed.
+    debt = std::min(debt + wall * free_run_factor_, 0.25 * free_run_factor_ + time_step_);
+    const double steps = std::floor(debt / time_step_);
+    if (steps < 1.0) continue;
+    try {
+      const double before = sim_time_;
+      StepLocked(steps * time_step_);
+      debt -= sim_time_ - before;
+    } catch (const Error& e) {
+      Log().warn("free-run: {}", e.what());
+      debt = 0.0;
+    }
+  }
+}
+
+// ---- State stream -------------------------------------------------------------
+
+WatchCursor RobotDriver::BeginWatch() {
+  ++watchers_;
+  {
+    Lock lock(mutex_);
+    if (backend_ && backend_->IsSimulation() && !diverged_) RecordSampleLocked();
+  }
+  WatchCursor cursor;
+  std::lock_guard<std::mutex> lock(watch_mutex_);
+  cursor.next_event = next_event_seq_;
+  return cursor;
+}
+
+void RobotDriver::EndWatch() { --watchers_; }
+
+std::optional<StateUpdate> RobotDriver::WaitForState(WatchCursor& cursor, double period,
+                                                     std::chrono::milliseconds wait) {
+  std::unique_lock<std::mutex> lock(watch_mutex_);
+  auto new_sample = [&] {
+    if (!latest_sample_ || (cursor.has_sample && sample_seq_ == cursor.sample_seq)) return false;
+    if (!cursor.has_sample) return true;
+    const double t = latest_sample_->time;
+    // Time going back means a reset or a new world: report it at once.
+    return t < cursor.last.time || t >= cursor.last.time + period - 1e-9;
+  };
+  auto new_events = [&] { return !events_.empty() && events_.back().first >= cursor.next_event; };
+  watch_cv_.wait_for(lock, wait, [&] { return shutdown_.load() || new_sample() || new_events(); });
+  if (shutdown_ || (!new_sample() && !new_events())) return std::nullopt;
+  StateUpdate update;
+  for (const auto& [seq, event] : events_) {
+    if (seq >= cursor.next_event) update.events.push_back(event);
+  }
+  cursor.next_event = next_event_seq_;
+  if (new_sample()) {
+    const RobotPose& pose = *latest_sample_;
+    const double dt = pose.time - cursor.last.time;
+    if (cursor.has_sample && dt > 0.0) {
+      for (int i = 0; i < 3; ++i) {
+        cursor.velocity[i] = (pose.position[i] - cursor.last.position[i]) / dt;
+      }
+    } else {
+      cursor.velocity = {0.0, 0.0, 0.0};
+    }
+    cursor.last = pose;
+    cursor.has_sample = true;
+    cursor.sample_seq = sample_seq_;
+  }
+  update.pose = cursor.last;
+  update.velocity = cursor.velocity;
+  return update;
+}
+
+// ---- Daemon ----------------------------------------------------------------------
+
+DriverInfo RobotDriver::Info() const {
+  Lock lock(mutex_);
+  return DriverInfo{.backend = backend_ ? backend_->Name() : "none",
+                    .world = world_name_,
+                    .master_node = config_.master_id,
+                    .connected = connected_,
+                    .free_run_factor = free_run_factor_};
+}
+
+void RobotDriver::Shutdown() {
+  {
+    Lock lock(mutex_);
+    shutdown_ = true;
+    free_run_factor_ = 0.0;
+  }
+  wake_.notify_all();
+  {
+    std::lock_guard<std::mutex> lock(watch_mutex_);
+  }
+  watch_cv_.notify_all();
+}
+
+}  // namespace yamor::host

@@ -1,0 +1,372 @@
+// The robot driver (the thesis's RobotCom, 5.5.2): holds the robot
+// configuration, translates every API call into SNP frames for a Backend,
+// queues parameter changes until Flush, maps real <-> simulation ids, builds
+// the bluetooth network, and advances virtual time in simulation.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "cpg/robot_config.h"
+#include "host/backend.h"
+#include "host/id_map.h"
+#include "host/parameters.h"
+#include "physics/morphology.h"
+#include "proto/snp/messages.h"
+
+namespace yamor::host {
+
+/// Returns true once the caller gave up (client cancelled, deadline passed).
+/// Long operations poll it between chunks and then throw CANCELLED.
+using CancelCheck = std::function<bool()>;
+
+/// Fixed settings of a driver (from yamord's settings).
+struct DriverOptions {
+  /// Real -> simulation ids, applied to every frame sent to a simulation.
+  IdMap id_map;
+  /// The master node the settings expect (thesis C.1); when set, ConnectRobot
+  /// refuses a configuration whose bluetooth tree has another root.
+  std::optional<int> master;
+  /// Default wait for each link's ConnectAck [s].
+  double link_timeout = 2.0;
+  /// Wait for a module's or the bridge's reply on a real link [s] (a
+  /// simulation answers synchronously and never waits).
+  double reply_timeout = 1.0;
+  /// Virtual seconds stepped per Step frame in a Sleep; cancellation and
+  /// other calls get in between chunks.
+  double sleep_chunk = 0.05;
+  /// Longest Sleep [s].
+  double max_sleep = 24.0 * 3600.0;
+};
+
+/// A resolved simulation to open: a morphology plus, optionally, a new
+/// configuration (otherwise the driver keeps its current one).
+struct SimulationSpec {
+  physics::Morphology morphology;         ///< World (simulation ids).
+  std::string world_name;                 ///< Name shown by GetInfo.
+  std::optional<cpg::RobotConfig> config; ///< Replaces the configuration when set.
+  uint64_t seed = 0;                      ///< World and oscillator seed.
+  double time_step = 0.0;                 ///< Physics step [s]; 0 = default.
+};
+
+/// What OpenSimulation reports.
+struct OpenedSimulation {
+  std::vector<int> module_ids;  ///< Real ids of the world's modules, ascending sim order.
+  int central_module = 0;       ///< Real id of the tracked module.
+};
+
+/// Result of ConnectRobot.
+struct ConnectResult {
+  int links = 0;         ///< Links established.
+  double elapsed = 0.0;  ///< Wall-clock seconds taken.
+  int frames_sent = 0;   ///< SNP frames sent (links and configuration).
+};
+
+/// A tristate control message (thesis C.2.4) and its targets.
+struct ControlMessage {
+  snp::Tristate uart = snp::Tristate::kUnchanged;    ///< Sensor-board serial line.
+  snp::Tristate cpg = snp::Tristate::kUnchanged;     ///< Oscillator.
+  snp::Tristate motors = snp::Tristate::kUnchanged;  ///< Servo power.
+  std::vector<int> module_ids;  ///< Targets (real ids), used when `all` is false.
+  bool all = false;             ///< Every module of the configuration.
+};
+
+/// A pose of the central module.
+struct RobotPose {
+  double time = 0.0;                                   ///< Sample time [s].
+  std::array<double, 3> position{};                   ///< [m], world frame.
+  std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};  ///< Quaternion w, x, y, z.
+  std::string source;                                  ///< "simulation" or "led-tracker".
+};
+
+/// A motor defect (C.2.6).
+enum class MotorDefect {
+  kNone,   ///< Repaired.
+  kLimp,   ///< No torque.
+  kStuck,  ///< Locked at its angle.
+};
+
+/// A ground change; absent fields keep their value.
+struct GroundChange {
+  std::optional<double> friction;         ///< Coulomb coefficient (> 0).
+  std::optional<double> slope;            ///< [rad] in [0, π/2).
+  std::optional<double> slope_direction;  ///< Downhill azimuth [rad].
+};
+
+/// One accelerometer sample.
+struct AccelerometerSample {
+  std::array<int, 3> counts{};             ///< Raw 10-bit counts.
+  std::array<double, 3> acceleration{};    ///< (count - zero)·δ [m/s²], module frame.
+};
+
+/// A noteworthy change of the robot, for WatchState.
+struct StateEvent {
+  std::string kind;    ///< "opened", "closed", "reset", "connected", "defect_set", "diverged", ...
+  int module_id = -1;  ///< Module concerned (real id), or -1.
+  std::string detail;  ///< Human-readable detail.
+};
+
+/// One WatchState update.
+struct StateUpdate {
+  RobotPose pose;                        ///< Latest pose.
+  std::array<double, 3> velocity{};      ///< Estimate from the previous update [m/s].
+  std::vector<StateEvent> events;        ///< Events since the previous update.
+};
+
+/// A watcher's position in the state log (one per WatchState stream).
+struct WatchCursor {
+  uint64_t next_event = 0;   ///< First event sequence number not yet delivered.
+  uint64_t sample_seq = 0;   ///< Sequence number of the last delivered sample.
+  bool has_sample = false;   ///< A sample was delivered.
+  RobotPose last;            ///< The last delivered pose.
+  std::array<double, 3> velocity{};  ///< The last velocity estimate [m/s].
+};
+
+/// What GetInfo shows about the driver.
+struct DriverInfo {
+  std::string backend;        ///< "simulation", "serial", "fake" or "none".
+  std::string world;          ///< Name of the open world ("" when none).
+  int master_node = 0;        ///< Master node (real id).
+  bool connected = false;     ///< ConnectRobot succeeded since open/reset.
+  double free_run_factor = 0; ///< Free-run real-time factor, 0 = off.
+};
+
+/// The stateful robot driver.
+///
+/// Thread-safety: every public method may be called from any thread. One
+/// mutex (`mutex_`) serialises everything that touches the robot or the
+/// configuration: the robot is one stateful device. A virtual-time Sleep
+/// releases it between chunks, so other calls, the free-run thread and
+/// WatchState interleave at chunk boundaries; a real-time Sleep does not hold
+/// it while waiting. The state log for WatchState has its own mutex.
+class RobotDriver {
+ public:
+  /// A driver without a backend (no simulation open) holding `config`.
+  RobotDriver(DriverOptions options, cpg::RobotConfig config);
+  /// Stops the free-run thread.
+  ~RobotDriver();
+  RobotDriver(const RobotDriver&) = delete;
+  RobotDriver& operator=(const RobotDriver&) = delete;
+
+  // ---- Backend ----------------------------------------------------------
+
+  /// Opens (or replaces) the simulation: INVALID_ARGUMENT when a module of
+  /// the configuration is missing from the world, OUT_OF_RANGE for a bad
+  /// time step. The robot starts at power-on, not connected.
+  OpenedSimulation OpenSimulation(SimulationSpec spec);
+  /// Uses `backend` (a fake in tests, later the serial link); the robot is
+  /// not connected.
+  void AttachBackend(std::unique_ptr<Backend> backend, std::string world_name);
+  /// Drops the backend; later robot calls get FAILED_PRECONDITION. No-op
+  /// when none is open.
+  void CloseSimulation();
+  /// True when the backend is a simulation.
+  bool SimulationModeEnabled() const;
+  /// Restores the simulation to its state when opened (time 0, power-on,
+  /// not connected; defects and ground changes cleared).
+  void ResetSimulation();
+  /// The open world's morphology (simulation ids); FAILED_PRECONDITION
+  /// without a simulated robot.
+  physics::Morphology GetMorphology() const;
+
+  // ---- Configuration (works with or without a backend) ------------------
+
+  /// Replaces the configuration (XML, thesis schema). INVALID_ARGUMENT with
+  /// file:line when malformed or when a module is missing from the open
+  /// world. Every parameter is queued for the next Flush; the robot must be
+  /// connected again when the bluetooth tree changed.
+  void LoadConfig(std::string_view xml, std::string_view source_name);
+  /// The configuration as canonical XML.
+  std::string SaveConfig() const;
+  /// A copy of the configuration.
+  cpg::RobotConfig Config() const;
+  /// Module ids in configuration order.
+  std::vector<int> GetAllModulesId() const;
+  /// A module parameter; NOT_FOUND for an unknown module.
+  double GetModuleValue(int id, ModuleField field) const;
+  /// Sets a module parameter (see SetModuleField) and queues it.
+  void SetModuleValue(int id, ModuleField field, double value);
+  /// A coupling parameter; NOT_FOUND when the coupling is absent.
+  double GetCouplingValue(int from, int to, CouplingField field) const;
+  /// Sets a coupling parameter (see SetCouplingField) and queues it.
+  void SetCouplingValue(int from, int to, CouplingField field, double value);
+  /// Adds or replaces a coupling (see host::AddCoupling) and queues it.
+  void AddCoupling(int from, int to, double phase, double weight);
+  /// Removes every coupling; queues a ClearCouplings per module.
+  void RemoveAllCouplings();
+  /// Number of queued changes (one per module parameter group or coupling).
+  int PendingChanges() const;
+
+  // ---- Robot ------------------------------------------------------------
+
+  /// Builds the bluetooth network in tree order (parent before child), one
+  /// ConnectRequest at a time, each waiting for its ConnectAck up to
+  /// `link_timeout` seconds (<= 0: the default). UNAVAILABLE names the link:
+  /// "link 4 -> 7 timed out after 2 s". Unless `links_only`, then sends the
+  /// whole configuration (as Refresh).
+  ConnectResult ConnectRobot(double link_timeout, bool links_only, const CancelCheck& cancel);
+  /// Sends the queued changes; returns the number of frames. On an error the
+  /// changes not yet sent stay queued and the message says how many.
+  int Flush();
+  /// Resends every parameter and coupling; returns the number of frames.
+  int Refresh();
+  /// Sends a tristate control message to each target (unicast, acknowledged).
+  /// Motor-on is never forwarded to a module with a motor defect.
+  void SendControlMessage(const ControlMessage& message);
+  /// Waits `seconds`: in simulation (unless `real_time`) steps the world as
+  /// fast as possible in chunks; otherwise waits on the clock. Returns the
+  /// elapsed time afterwards. CANCELLED when `cancel` fires, UNAVAILABLE
+  /// when the driver shuts down, FAILED_PRECONDITION when the world diverges.
+  double Sleep(double seconds, bool real_time, const CancelCheck& cancel);
+  /// Virtual time in simulation; wall-clock seconds since the backend was
+  /// attached otherwise.
+  double ElapsedTime();
+  /// Pose of the central module (simulation only for now; the LED tracker
+  /// is a later issue: UNIMPLEMENTED on hardware).
+  RobotPose RobotPosition();
+  /// Servo angles of `ids` (all modules when empty), read over SNP.
+  std::vector<std::pair<int, double>> GetServoAngles(const std::vector<int>& ids);
+  /// The last `samples` (1..16; 0 = 1) accelerometer samples of a module.
+  std::vector<AccelerometerSample> GetAccelerometer(int id, int samples);
+  /// Marks a motor defect (C.2.6): sends motor-off when connected, blocks
+  /// later motor-on, and in simulation makes the servo limp or stuck.
+  void SetMotorDefect(int id, MotorDefect defect);
+  /// Marks a whole module defect (simulation only; UNIMPLEMENTED otherwise).
+  void SetModuleDefect(int id, bool defective);
+  /// Changes friction and slope (simulation only).
+  void SetGround(const GroundChange& change);
+  /// Physically attaches free module `from` (a bridge command; backends
+  /// without reconfiguration answer UNIMPLEMENTED). angle_degrees: multiple
+  /// of 15 in [0, 360).
+  void ConnectModules(int from, snp::Connector from_connector, int to,
+                      snp::Connector to_connector, double angle_degrees);
+  /// Detaches a module from all its neighbours (a bridge command).
+  void DisconnectModule(int id);
+  /// Runs a transformation script (thesis C.2.7: <script> with connect,
+  /// disconnect and pause delay="ms"), parsed by physics::TransformationScript
+  /// and validated whole before anything runs; each command is sent as SNP
+  /// (ConnectModules / DisconnectModule / a virtual-time Sleep). Errors name
+  /// the script line.
+  void RunTransformationScript(std::string_view xml, const CancelCheck& cancel);
+  /// Free-run mode: a background thread steps the simulation at
+  /// `real_time_factor` simulated seconds per wall second (0 = off,
+  /// OUT_OF_RANGE outside [0, 100]).
+  void SetFreeRun(double real_time_factor);
+
+  // ---- State stream -----------------------------------------------------
+
+  /// Starts a watcher: records the current pose so the first update is
+  /// immediate. Call EndWatch when the stream ends.
+  WatchCursor BeginWatch();
+  /// Ends a watcher started with BeginWatch.
+  void EndWatch();
+  /// Waits up to `wait` for the next update at least `period` (virtual)
+  /// seconds after the cursor's last one, or for new events. nullopt when
+  /// nothing new arrived (or the driver shuts down).
+  std::optional<StateUpdate> WaitForState(WatchCursor& cursor, double period,
+                                          std::chrono::milliseconds wait);
+
+  // ---- Daemon -----------------------------------------------------------
+
+  /// Backend, world, master, connection, free-run factor.
+  DriverInfo Info() const;
+  /// The id mapping of this driver.
+  const IdMap& id_map() const { return options_.id_map; }
+  /// Cancels long calls (they fail with UNAVAILABLE "shutting down"),
+  /// stops free-run and wakes watchers. Irreversible.
+  void Shutdown();
+  /// True after Shutdown.
+  bool shutting_down() const { return shutdown_.load(); }
+
+ private:
+  struct PendingModule {
+    bool amplitude = false;
+    bool offset = false;
+    bool speed = false;
+    bool limits = false;
+    bool clear_couplings = false;
+    std::set<int> couplings;  // `to` ids of couplings to (re)send
+    int Count() const;
+  };
+
+  using Lock = std::unique_lock<std::mutex>;
+
+  // All *Locked methods require mutex_ held.
+  Backend& RequireBackendLocked(std::string_view what) const;
+  bridge::Robot& RequireSimulatedRobotLocked(std::string_view what) const;
+  void RequireConnectedLocked(std::string_view what) const;
+  int Wire(int real) const;   // real id -> id on the wire
+  int Real(int wire) const;   // id on the wire -> real id
+  snp::Message ToWire(const snp::Message& message) const;
+  // Sends a module message to real module `id` and waits for `reply`;
+  // nullopt when nothing came within `timeout`; throws when refused.
+  std::optional<snp::Message> ModuleRequestLocked(int id, const snp::Message& message,
+                                                  snp::MessageType reply, double timeout);
+  // As above with the default reply timeout; throws UNAVAILABLE on timeout.
+  snp::Message ModuleCallLocked(int id, const snp::Message& message, snp::MessageType reply);
+  // Sends a bridge command and waits for `reply` or SpecialAck/SpecialError.
+  snp::Message BridgeRequestLocked(const snp::Message& message, snp::MessageType reply);
+  void HandleUnsolicitedLocked(const snp::Frame& frame);
+  void CheckDivergedLocked();
+  void StepLocked(double seconds);
+  void RecordSampleLocked();
+  int SendModuleConfigLocked(const cpg::ModuleParams& module, const PendingModule* only);
+  int RefreshLocked();
+  void MarkAllPendingLocked();
+  void CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
+                                     const physics::Morphology& morphology) const;
+  void ResetRobotStateLocked();
+  void PushEvent(StateEvent event);
+  void FreeRunLoop();
+  double SleepRealTime(double seconds, const CancelCheck& cancel);
+
+  const DriverOptions options_;
+  std::atomic<bool> shutdown_{false};
+
+  mutable std::mutex mutex_;
+  cpg::RobotConfig config_;                      // guarded by mutex_
+  std::map<int, PendingModule> pending_;         // guarded by mutex_
+  std::unique_ptr<Backend> backend_;             // guarded by mutex_
+  std::string world_name_;                       // guarded by mutex_
+  bool connected_ = false;                       // guarded by mutex_
+  bool diverged_ = false;                        // guarded by mutex_
+  std::string divergence_;                       // guarded by mutex_
+  double sim_time_ = 0.0;                        // guarded by mutex_
+  double time_step_ = 0.001;                     // guarded by mutex_
+  std::chrono::steady_clock::time_point attached_at_;  // guarded by mutex_
+  std::map<int, MotorDefect> motor_defects_;     // guarded by mutex_ (real ids)
+  std::set<int> module_defects_;                 // guarded by mutex_ (real ids)
+  double slope_ = 0.0;                           // guarded by mutex_
+  double slope_direction_ = 0.0;                 // guarded by mutex_
+  double free_run_factor_ = 0.0;                 // guarded by mutex_
+
+  // Wakes real-time sleeps and the free-run thread on shutdown or change.
+  std::condition_variable wake_;                 // used with mutex_
+  std::thread free_run_thread_;                  // guarded by mutex_ (started once)
+
+  // State log for WatchState.
+  mutable std::mutex watch_mutex_;
+  std::condition_variable watch_cv_;
+  std::atomic<int> watchers_{0};
+  uint64_t sample_seq_ = 0;                      // guarded by watch_mutex_
+  std::optional<RobotPose> latest_sample_;       // guarded by watch_mutex_
+  std::deque<std::pair<uint64_t, StateEvent>> events_;  // guarded by watch_mutex_
+  uint64_t next_event_seq_ = 0;                  // guarded by watch_mutex_
+};
+
+}  // namespace yamor::host

@@ -1,0 +1,114 @@
+// Evaluate: the stateless gait evaluation optimizers use (DESIGN.md). Each
+// evaluation builds its own emulated robot from a morphology and a
+// configuration with named parameter values applied, configures it over SNP,
+// runs a warm-up and a measured span, and reports the velocity of thesis
+// 6.2.1. Evaluations run on a fixed pool of worker threads.
+#pragma once
+
+#include <array>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <future>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "cpg/robot_config.h"
+#include "host/driver.h"
+#include "host/id_map.h"
+#include "physics/morphology.h"
+
+namespace yamor::host {
+
+/// Default warm-up [s] before the measured span (thesis chapter 6).
+inline constexpr double kDefaultWarmup = 8.0;
+/// Default measured span [s].
+inline constexpr double kDefaultDuration = 12.0;
+
+/// One evaluation's inputs.
+struct EvaluationSpec {
+  physics::Morphology morphology;  ///< World (simulation ids).
+  cpg::RobotConfig config;         ///< Configuration (real ids).
+  IdMap id_map;                    ///< Real -> simulation ids.
+  /// Named parameters (amplitude.3, phase.2.5, ...) applied over `config`.
+  std::vector<std::pair<std::string, double>> parameters;
+  double warmup = kDefaultWarmup;      ///< [s], >= 0.
+  double duration = kDefaultDuration;  ///< [s], > 0.
+  uint64_t seed = 0;                   ///< World and oscillator seed.
+  double trajectory_period = 0.0;      ///< > 0: sample the trajectory every period [s].
+  double time_step = 0.0;              ///< Physics step [s]; 0 = default.
+};
+
+/// A trajectory sample.
+struct TrajectoryPoint {
+  double time = 0.0;                 ///< Simulated time [s].
+  std::array<double, 3> position{};  ///< Central module position [m].
+};
+
+/// One evaluation's outputs.
+struct EvaluationResult {
+  double velocity = 0.0;  ///< distance / duration [m/s]; 0 when diverged.
+  double distance = 0.0;  ///< Ground-plane (x, y) distance warm-up -> end [m].
+  RobotPose final_pose;   ///< Central module at the end (or when it diverged).
+  std::vector<TrajectoryPoint> trajectory;  ///< When trajectory_period > 0.
+  bool diverged = false;    ///< The world diverged.
+  std::string divergence;   ///< Why, when diverged.
+  double wall_seconds = 0.0;  ///< Wall-clock time taken.
+};
+
+/// Runs one evaluation on the calling thread. Deterministic: the same spec
+/// gives bit-identical results on the same build. Errors: the parameter
+/// errors of ApplyParameters, INVALID_ARGUMENT for configuration modules
+/// missing from the world, OUT_OF_RANGE for bad timings, CANCELLED when
+/// `cancel` fires (checked between 0.1 s chunks of simulated time).
+/// Thread-safe: evaluations share nothing.
+EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& cancel);
+
+/// A fixed pool of worker threads running queued jobs in FIFO order.
+/// Thread-safety: Submit and Shutdown may be called from any thread.
+class WorkerPool {
+ public:
+  /// Starts `workers` threads (0 = std::thread::hardware_concurrency, at least 1).
+  explicit WorkerPool(unsigned workers);
+  /// Shuts down and joins.
+  ~WorkerPool();
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+
+  /// Queues `job`; the future carries its result or exception. Throws
+  /// UNAVAILABLE after Shutdown.
+  template <typename F>
+  auto Submit(F job) -> std::future<decltype(job())> {
+    using Result = decltype(job());
+    auto task = std::make_shared<std::packaged_task<Result()>>(std::move(job));
+    std::future<Result> future = task->get_future();
+    Enqueue([task] { (*task)(); });
+    return future;
+  }
+
+  /// Number of worker threads.
+  unsigned size() const { return static_cast<unsigned>(threads_.size()); }
+  /// Jobs waiting for a worker.
+  std::size_t queued() const;
+  /// Stops accepting jobs; queued jobs still run; running jobs should watch
+  /// stopping() (via their cancel check) to end early. Joins the workers.
+  void Shutdown();
+  /// True once Shutdown was called.
+  bool stopping() const;
+
+ private:
+  void Enqueue(std::function<void()> job);
+  void WorkerLoop();
+
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> jobs_;  // guarded by mutex_
+  bool stopping_ = false;                   // guarded by mutex_
+  std::vector<std::thread> threads_;        // written only in the constructor/Shutdown
+};
+
+}  // namespace yamor::host

@@ -1,0 +1,47 @@
+// yamord's settings (thesis C.1): listen address, backend, world and
+// configuration opened at start, Evaluate workers, id mapping, master node,
+// LED tracker address. Read from a TOML file; command-line flags override.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace yamor::host {
+
+/// Every daemon setting, with its default. Plain value.
+struct Settings {
+  std::string listen = "127.0.0.1:2224";  ///< gRPC address ADDR:PORT (port 0 = ephemeral).
+  std::string backend = "sim";            ///< "sim" (the serial backend is a later issue).
+  std::string world;         ///< Built-in world name or morphology file; "" = quadruped.
+  std::string config;        ///< Robot configuration file; "" = the world's built-in one.
+  unsigned workers = 0;      ///< Evaluate worker threads; 0 = the core count.
+  std::string id_map;        ///< Real -> simulation ids, "real:sim,real:sim".
+  std::optional<int> master; ///< Expected master node (0..254).
+  std::string led_tracker;   ///< LED tracker HOST:PORT (stored; used by a later issue).
+  std::string log_level = "info";      ///< trace, debug, info, warn, error, critical, off.
+  unsigned max_concurrent_calls = 64;  ///< Calls served at once; more get RESOURCE_EXHAUSTED.
+  double link_timeout = 2.0;           ///< ConnectRobot per-link timeout [s].
+  double free_run = 0.0;               ///< Free-run real-time factor at start; 0 = off.
+  uint64_t seed = 0;                   ///< Seed of the world opened at start.
+};
+
+/// Parses TOML settings; keys not set keep their defaults. INVALID_ARGUMENT
+/// naming `source` and the line for malformed TOML, unknown keys or values
+/// of the wrong type or range.
+Settings ParseSettingsToml(std::string_view text, std::string_view source);
+
+/// Reads a TOML settings file: NOT_FOUND when it cannot be read, else as
+/// ParseSettingsToml.
+Settings LoadSettingsFile(const std::string& path);
+
+/// The settings as TOML (every key, defaults included); parsing the result
+/// gives the same settings.
+std::string SettingsToToml(const Settings& settings);
+
+/// Checks values that do not depend on the file format (ranges, id map
+/// syntax, listen address shape); throws INVALID_ARGUMENT / OUT_OF_RANGE.
+void ValidateSettings(const Settings& settings);
+
+}  // namespace yamor::host

@@ -1,0 +1,157 @@
+// yamord: the YaMoR host daemon. Drives one robot (the simulated quadruped
+// unless told otherwise) and serves the yamor.v1.Host gRPC API, plus
+// grpc.health.v1 and server reflection.
+//
+//   yamord                                  # quadruped on 127.0.0.1:2224
+//   yamord --listen 127.0.0.1:0 --world snake
+//   yamord --settings /etc/yamor/yamord.toml --print-config
+//
+// SIGTERM / SIGINT: stop accepting calls, cancel long Sleeps and Evaluates,
+// drain in-flight calls (up to --drain-seconds), exit 0.
+#include <pthread.h>
+#include <signal.h>
+
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "common/log.h"
+#include "common/status.h"
+#include "cpg/config_xml.h"
+#include "host/builtin_robots.h"
+#include "host/driver.h"
+#include "host/evaluator.h"
+#include "host/id_map.h"
+#include "host/service.h"
+#include "host/settings.h"
+#include "host/worlds.h"
+
+namespace {
+
+using namespace yamor;
+using namespace yamor::host;
+
+int Run(int argc, char** argv, const sigset_t& signals) {
+  CLI::App app{"yamord: the YaMoR host daemon (gRPC API yamor.v1.Host)", "yamord"};
+  Settings flags;
+  std::string settings_file;
+  int master_id = 0;
+  bool print_config = false;
+  double drain_seconds = 5.0;
+  app.add_option("--settings", settings_file, "TOML settings file (flags override it)");
+  auto* listen = app.add_option("--listen", flags.listen, "gRPC address ADDR:PORT (port 0: pick one)");
+  auto* backend = app.add_option("--backend", flags.backend, "Robot backend: sim");
+  auto* world = app.add_option("--world", flags.world,
+                               "Built-in world name or morphology file (default quadruped)");
+  auto* config = app.add_option("--config", flags.config,
+                                "Robot configuration file (default: the world's built-in one)");
+  auto* workers = app.add_option("--workers", flags.workers, "Evaluate workers (0 = core count)");
+  auto* id_map = app.add_option("--id-map", flags.id_map, "Real:simulation ids, e.g. 0:10,1:11");
+  auto* master = app.add_option("--master", master_id, "Master node id (0..254)")
+                     ->check(CLI::Range(0, 254));
+  auto* led = app.add_option("--led-tracker", flags.led_tracker, "LED tracker HOST:PORT (stored)");
+  auto* level = app.add_option("--log-level", flags.log_level,
+                               "trace, debug, info, warn, error, critical, off");
+  auto* calls = app.add_option("--max-concurrent-calls", flags.max_concurrent_calls,
+                               "Calls served at once; more get RESOURCE_EXHAUSTED");
+  auto* link_timeout = app.add_option("--link-timeout", flags.link_timeout,
+                                      "ConnectRobot per-link timeout [s]");
+  auto* free_run = app.add_option("--free-run", flags.free_run,
+                                  "Free-run real-time factor at start (0 = off)");
+  auto* seed = app.add_option("--seed", flags.seed, "Seed of the world opened at start");
+  app.add_option("--drain-seconds", drain_seconds, "Grace period for in-flight calls on SIGTERM");
+  app.add_flag("--print-config", print_config, "Print the effective settings as TOML and exit");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+
+  Settings settings = settings_file.empty() ? Settings() : LoadSettingsFile(settings_file);
+  if (listen->count()) settings.listen = flags.listen;
+  if (backend->count()) settings.backend = flags.backend;
+  if (world->count()) settings.world = flags.world;
+  if (config->count()) settings.config = flags.config;
+  if (workers->count()) settings.workers = flags.workers;
+  if (id_map->count()) settings.id_map = flags.id_map;
+  if (master->count()) settings.master = master_id;
+  if (led->count()) settings.led_tracker = flags.led_tracker;
+  if (level->count()) settings.log_level = flags.log_level;
+  if (calls->count()) settings.max_concurrent_calls = flags.max_concurrent_calls;
+  if (link_timeout->count()) settings.link_timeout = flags.link_timeout;
+  if (free_run->count()) settings.free_run = flags.free_run;
+  if (seed->count()) settings.seed = flags.seed;
+  ValidateSettings(settings);
+  if (print_config) {
+    std::cout << SettingsToToml(settings);
+    return 0;
+  }
+  SetLogLevel(settings.log_level);
+
+  // The world and configuration opened at start.
+  ResolvedWorld resolved = ResolveWorld(WorldRequest{.world = settings.world}, kDefaultWorld,
+                                        /*allow_files=*/true);
+  std::optional<cpg::RobotConfig> robot_config = std::move(resolved.config);
+  if (!settings.config.empty()) robot_config = cpg::LoadConfigFile(settings.config);
+  if (!robot_config) {
+    throw Error(StatusCode::kInvalidArgument, "world " + resolved.name +
+                                                  " has no built-in configuration: give --config");
+  }
+  DriverOptions driver_options{.id_map = ParseIdMap(settings.id_map),
+                               .master = settings.master,
+                               .link_timeout = settings.link_timeout};
+  RobotDriver driver(driver_options, *robot_config);
+  auto default_morphology = std::make_shared<const physics::Morphology>(resolved.morphology);
+  driver.OpenSimulation(SimulationSpec{.morphology = std::move(resolved.morphology),
+                                       .world_name = resolved.name,
+                                       .config = std::nullopt,
+                                       .seed = settings.seed});
+  if (!settings.led_tracker.empty()) {
+    Log().info("LED tracker {} noted (tracking is not implemented yet)", settings.led_tracker);
+  }
+
+  WorkerPool pool(settings.workers);
+  ServerOptions server_options{
+      .listen = settings.listen,
+      .service = ServiceOptions{.max_concurrent_calls = settings.max_concurrent_calls,
+                                .default_world = resolved.name,
+                                .default_morphology = default_morphology}};
+  HostServer server(driver, pool, server_options);
+  const std::string host = settings.listen.substr(0, settings.listen.rfind(':'));
+  std::cout << "yamord: listening on " << host << ":" << server.port() << std::endl;
+  Log().info("yamord {} serving world {} on {}:{} ({} evaluate workers)", YAMOR_VERSION,
+             resolved.name, host, server.port(), pool.size());
+  if (settings.free_run > 0.0) driver.SetFreeRun(settings.free_run);
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  Log().info("received {}: draining calls (up to {} s)", strsignal(signal_number), drain_seconds);
+  server.Shutdown(std::chrono::milliseconds(static_cast<int64_t>(drain_seconds * 1000)));
+  pool.Shutdown();
+  Log().info("yamord stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Block the stop signals in every thread (gRPC's included, so block before
+  // any starts); main waits for them with sigwait.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  try {
+    return Run(argc, argv, signals);
+  } catch (const yamor::Error& e) {
+    std::cerr << "yamord: " << yamor::StatusCodeName(e.code()) << ": " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "yamord: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,332 @@
+// RobotDriver over the in-process simulation, and Evaluate.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "bridge/robot.h"
+#include "common/status.h"
+#include "host/builtin_robots.h"
+#include "host/driver.h"
+#include "host/evaluator.h"
+#include "host/sim_backend.h"
+#include "host/worlds.h"
+#include "physics/world.h"
+#include "tests/host/test_util.h"
+
+namespace yamor::host {
+namespace {
+
+using snp::Tristate;
+
+template <typename F>
+StatusCode CodeOf(F&& call, std::string* message = nullptr) {
+  try {
+    call();
+  } catch (const Error& e) {
+    if (message) *message = e.what();
+    return e.code();
+  }
+  return StatusCode::kOk;
+}
+
+double Horizontal(const RobotPose& a, const RobotPose& b) {
+  return std::hypot(a.position[0] - b.position[0], a.position[1] - b.position[1]);
+}
+
+SimulationSpec Quadruped(uint64_t seed = 0) {
+  ResolvedWorld world = ResolveWorld(WorldRequest{.world = "quadruped"}, kDefaultWorld, false);
+  return SimulationSpec{.morphology = std::move(world.morphology),
+                        .world_name = world.name,
+                        .config = std::move(world.config),
+                        .seed = seed};
+}
+
+TEST(BuiltinRobotsTest, EveryWorldWithAConfigurationIsEmbedded) {
+  const std::vector<std::string> names = BuiltinRobotNames();
+  for (const char* name : {"quadruped", "snake", "dog", "tripod", "wheel", "trebuchet"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
+    EXPECT_NE(FindBuiltinRobot(name), nullptr) << name;
+  }
+  for (const std::string& name : names) {
+    ResolvedWorld world = ResolveWorld(WorldRequest{.world = name}, kDefaultWorld, false);
+    ASSERT_TRUE(world.config.has_value()) << name;
+    for (const cpg::ModuleParams& m : world.config->modules) {
+      EXPECT_TRUE(world.morphology.Contains(m.id)) << name << " module " << m.id;
+    }
+  }
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { ResolveWorld(WorldRequest{.world = "unicorn"}, kDefaultWorld, false); },
+                   &message),
+            StatusCode::kNotFound);
+  EXPECT_NE(message.find("quadruped"), std::string::npos) << "lists the built-in worlds";
+  EXPECT_EQ(CodeOf([&] {
+              ResolveWorld(WorldRequest{.world = testing::kSourceDir + "/configs/worlds/snake.xml"},
+                           kDefaultWorld, /*allow_files=*/false);
+            }),
+            StatusCode::kNotFound)
+      << "network requests never read files";
+}
+
+// The thesis's session (5.5, C.2): open, connect, control on, let it walk.
+TEST(DriverSimTest, TheQuadrupedWalksInVirtualTime) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  const OpenedSimulation opened = driver.OpenSimulation(Quadruped());
+  EXPECT_EQ(opened.module_ids.size(), 9u);
+  EXPECT_EQ(opened.central_module, 4);
+  EXPECT_TRUE(driver.SimulationModeEnabled());
+  const ConnectResult connected = driver.ConnectRobot(0.0, false, nullptr);
+  EXPECT_EQ(connected.links, 8);
+  driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
+  const RobotPose start = driver.RobotPosition();
+  EXPECT_DOUBLE_EQ(start.time, 0.0);
+  EXPECT_EQ(start.source, "simulation");
+  const double t = driver.Sleep(20.0, false, nullptr);
+  EXPECT_NEAR(t, 20.0, 1e-9);
+  EXPECT_NEAR(driver.ElapsedTime(), 20.0, 1e-9);
+  const RobotPose end = driver.RobotPosition();
+  EXPECT_GT(Horizontal(start, end), 0.05) << "the quadruped walked less than 5 cm in 20 s";
+
+  // The servos follow the oscillators; angles come back over SNP.
+  const auto angles = driver.GetServoAngles({0, 5});
+  ASSERT_EQ(angles.size(), 2u);
+  EXPECT_LE(std::fabs(angles[0].second), 0.9);
+
+  // UART is on: the accelerometer of the upright central module sees gravity.
+  const auto samples = driver.GetAccelerometer(4, 4);
+  ASSERT_FALSE(samples.empty());
+  const auto& a = samples.back().acceleration;
+  EXPECT_NEAR(std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]), 9.81, 3.0);
+
+  driver.ResetSimulation();
+  EXPECT_DOUBLE_EQ(driver.ElapsedTime(), 0.0);
+  EXPECT_FALSE(driver.Info().connected);
+  EXPECT_EQ(CodeOf([&] { driver.Flush(); }), StatusCode::kFailedPrecondition);
+}
+
+TEST(DriverSimTest, WithoutControlTheRobotStaysPut) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  driver.OpenSimulation(Quadruped());
+  driver.ConnectRobot(0.0, false, nullptr);
+  const RobotPose start = driver.RobotPosition();
+  driver.Sleep(2.0, false, nullptr);
+  EXPECT_LT(Horizontal(start, driver.RobotPosition()), 0.01);
+}
+
+TEST(DriverSimTest, IdMappingDrivesASimulationWithOtherIds) {
+  // The real robot's modules are 20..28; the simulation's quadruped 0..8.
+  std::map<int, int> map;
+  for (int i = 0; i <= 8; ++i) map[20 + i] = i;
+  cpg::RobotConfig real = testing::QuadrupedConfig();
+  cpg::RobotConfig renamed;
+  for (cpg::ModuleParams m : real.modules) {
+    m.id += 20;
+    renamed.modules.push_back(m);
+  }
+  for (cpg::Coupling c : real.couplings) {
+    c.from += 20;
+    c.to += 20;
+    renamed.couplings.push_back(c);
+  }
+  for (const auto& [child, parent] : real.bluetooth_parent) {
+    renamed.bluetooth_parent[child + 20] = parent + 20;
+  }
+  renamed.master_id = real.master_id + 20;
+  DriverOptions options;
+  options.id_map = IdMap(map);
+  RobotDriver driver(options, renamed);
+  SimulationSpec spec = Quadruped();
+  spec.config.reset();  // keep the renamed configuration
+  const OpenedSimulation opened = driver.OpenSimulation(std::move(spec));
+  EXPECT_EQ(opened.central_module, 24);
+  driver.ConnectRobot(0.0, false, nullptr);
+  driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
+  const RobotPose start = driver.RobotPosition();
+  driver.Sleep(10.0, false, nullptr);
+  EXPECT_GT(Horizontal(start, driver.RobotPosition()), 0.02);
+  EXPECT_EQ(driver.GetServoAngles({25}).at(0).first, 25);
+
+  // A configuration the world cannot hold is refused.
+  RobotDriver unmapped({}, renamed);
+  SimulationSpec bad = Quadruped();
+  bad.config.reset();
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { unmapped.OpenSimulation(std::move(bad)); }, &message),
+            StatusCode::kInvalidArgument);
+  EXPECT_NE(message.find("module 20"), std::string::npos) << message;
+}
+
+TEST(DriverSimTest, DivergenceIsReportedAndResetRecovers) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  const physics::Morphology morphology = Quadruped().morphology;
+  auto backend = std::make_unique<SimBackend>(morphology, bridge::RobotOptions{});
+  SimBackend* sim = backend.get();
+  driver.AttachBackend(std::move(backend), "quadruped");
+  driver.ConnectRobot(0.0, false, nullptr);
+  driver.Sleep(0.1, false, nullptr);
+  sim->SimulatedRobot()->world().InjectNonFiniteForTesting(0);
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { driver.Sleep(1.0, false, nullptr); }, &message),
+            StatusCode::kFailedPrecondition);
+  EXPECT_NE(message.find("diverged"), std::string::npos) << message;
+  EXPECT_EQ(CodeOf([&] { driver.RobotPosition(); }), StatusCode::kFailedPrecondition);
+  EXPECT_EQ(CodeOf([&] { driver.Sleep(1.0, false, nullptr); }), StatusCode::kFailedPrecondition);
+  driver.ResetSimulation();
+  EXPECT_EQ(CodeOf([&] { driver.Sleep(0.2, false, nullptr); }), StatusCode::kOk);
+  EXPECT_TRUE(std::isfinite(driver.RobotPosition().position[0]));
+}
+
+TEST(DriverSimTest, FaultsAndGroundReachTheWorld) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  const physics::Morphology morphology = Quadruped().morphology;
+  auto backend = std::make_unique<SimBackend>(morphology, bridge::RobotOptions{});
+  physics::World& world = backend->SimulatedRobot()->world();
+  bridge::Robot& robot = *backend->SimulatedRobot();
+  driver.AttachBackend(std::move(backend), "quadruped");
+  driver.ConnectRobot(0.0, false, nullptr);
+  driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
+  EXPECT_TRUE(world.MotorEnabled(2));
+  driver.SetMotorDefect(2, MotorDefect::kLimp);
+  EXPECT_EQ(world.GetMotorFault(2), physics::MotorFault::kLimp);
+  EXPECT_FALSE(world.MotorEnabled(2)) << "the defect motor was switched off over SNP";
+  driver.SendControlMessage(ControlMessage{.motors = Tristate::kOn, .all = true});
+  EXPECT_FALSE(robot.Firmware(2).motors) << "motor-on was not forwarded";
+  EXPECT_TRUE(robot.Firmware(3).motors);
+
+  driver.SetModuleDefect(5, true);
+  EXPECT_TRUE(world.ModuleDefective(5));
+  EXPECT_EQ(CodeOf([&] { driver.SetModuleDefect(77, true); }), StatusCode::kNotFound);
+
+  driver.SetGround({.friction = 0.3});
+  EXPECT_DOUBLE_EQ(world.GroundFriction(), 0.3);
+  driver.SetGround({.slope = 0.1});
+  EXPECT_NEAR(world.Gravity().x(), 9.81 * std::sin(0.1), 1e-9);
+  EXPECT_EQ(CodeOf([&] { driver.SetGround({.slope = 2.0}); }), StatusCode::kOutOfRange);
+  EXPECT_EQ(CodeOf([&] { driver.SetGround({.friction = NAN}); }), StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf([&] { driver.SetGround({}); }), StatusCode::kInvalidArgument);
+
+  // Physical reconfiguration goes to the bridge as SNP; a bridge without it
+  // answers a clear UNIMPLEMENTED.
+  const bool reconfigures = testing::BridgeReconfigures();
+  EXPECT_EQ(CodeOf([&] { driver.DisconnectModule(5); }),
+            reconfigures ? StatusCode::kOk : StatusCode::kUnimplemented);
+
+  driver.ResetSimulation();
+  EXPECT_DOUBLE_EQ(world.GroundFriction(), physics::WorldOptions().ground_friction);
+  EXPECT_EQ(world.GetMotorFault(2), physics::MotorFault::kNone);
+  EXPECT_FALSE(world.ModuleDefective(5));
+}
+
+TEST(DriverSimTest, FreeRunAdvancesTheWorldOnItsOwn) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  driver.OpenSimulation(Quadruped());
+  EXPECT_EQ(CodeOf([&] { driver.SetFreeRun(-1.0); }), StatusCode::kOutOfRange);
+  driver.SetFreeRun(5.0);
+  EXPECT_DOUBLE_EQ(driver.Info().free_run_factor, 5.0);
+  double t = 0.0;
+  for (int i = 0; i < 500 && t <= 0.0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    t = driver.ElapsedTime();
+  }
+  EXPECT_GT(t, 0.0) << "free-run never stepped the world";
+  driver.SetFreeRun(0.0);
+  const double stopped = driver.ElapsedTime();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_DOUBLE_EQ(driver.ElapsedTime(), stopped) << "free-run off: the world waits";
+}
+
+// ---- Evaluate ----------------------------------------------------------------------
+
+EvaluationSpec QuadrupedEvaluation(double warmup = 2.0, double duration = 4.0) {
+  SimulationSpec sim = Quadruped();
+  return EvaluationSpec{.morphology = std::move(sim.morphology),
+                        .config = std::move(*sim.config),
+                        .warmup = warmup,
+                        .duration = duration,
+                        .seed = 7};
+}
+
+TEST(EvaluateTest, SameSeedSameVelocityAndVelocityIsDistanceOverDuration) {
+  EvaluationSpec spec = QuadrupedEvaluation();
+  spec.trajectory_period = 0.5;
+  const EvaluationResult a = RunEvaluation(spec, nullptr);
+  const EvaluationResult b = RunEvaluation(spec, nullptr);
+  EXPECT_FALSE(a.diverged);
+  EXPECT_GT(a.velocity, 0.0);
+  EXPECT_EQ(a.velocity, b.velocity) << "bit-identical for the same seed";
+  EXPECT_EQ(a.final_pose.position, b.final_pose.position);
+  EXPECT_DOUBLE_EQ(a.velocity, a.distance / 4.0);
+  ASSERT_EQ(a.trajectory.size(), 13u) << "t = 0, 0.5, ..., 6";
+  EXPECT_NEAR(a.trajectory.back().time, 6.0, 1e-9);
+  EXPECT_EQ(a.trajectory.back().position, a.final_pose.position);
+  // Distance from the pose at t = warm-up (trajectory sample 4) to the end.
+  const auto& w = a.trajectory[4].position;
+  EXPECT_NEAR(a.distance, std::hypot(a.final_pose.position[0] - w[0], a.final_pose.position[1] - w[1]),
+              1e-12);
+
+  EvaluationSpec still = QuadrupedEvaluation();
+  for (int id = 0; id <= 8; ++id) {
+    still.parameters.emplace_back("amplitude." + std::to_string(id), 0.0);
+  }
+  const EvaluationResult c = RunEvaluation(still, nullptr);
+  EXPECT_LT(c.velocity, a.velocity / 4.0) << "parameters are applied";
+}
+
+TEST(EvaluateTest, ParameterErrorsNameTheParameter) {
+  struct Case {
+    std::string name;
+    double value;
+    StatusCode code;
+  };
+  const Case cases[] = {
+      {"amplitude.3", NAN, StatusCode::kInvalidArgument},
+      {"amplitude.3", -1.0, StatusCode::kOutOfRange},
+      {"amplitude.42", 0.5, StatusCode::kNotFound},
+      {"phase.0.8", 0.5, StatusCode::kNotFound},
+      {"phase.0", 0.5, StatusCode::kInvalidArgument},
+      {"torque.3", 0.5, StatusCode::kInvalidArgument},
+      {"speed.x", 0.5, StatusCode::kInvalidArgument},
+      {"speed.3", 99.0, StatusCode::kOutOfRange},
+      {"minangle.3", 1.0, StatusCode::kOutOfRange},  // above maxangle 0.78
+      {"weight.0.1", INFINITY, StatusCode::kInvalidArgument},
+  };
+  for (const Case& c : cases) {
+    EvaluationSpec spec = QuadrupedEvaluation(0.0, 0.1);
+    spec.parameters.emplace_back(c.name, c.value);
+    std::string message;
+    EXPECT_EQ(CodeOf([&] { RunEvaluation(spec, nullptr); }, &message), c.code) << c.name;
+    EXPECT_NE(message.find(c.name), std::string::npos) << message;
+  }
+  EvaluationSpec ordered = QuadrupedEvaluation(0.0, 0.1);
+  ordered.parameters = {{"minangle.3", 1.0}, {"maxangle.3", 1.2}};
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(ordered, nullptr); }), StatusCode::kOk)
+      << "min < max is checked after all parameters";
+  EvaluationSpec timing = QuadrupedEvaluation(-1.0, 1.0);
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(timing, nullptr); }), StatusCode::kOutOfRange);
+  timing = QuadrupedEvaluation(1.0, NAN);
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(timing, nullptr); }), StatusCode::kInvalidArgument);
+}
+
+TEST(EvaluateTest, CancellationStopsBetweenChunks) {
+  EvaluationSpec spec = QuadrupedEvaluation(8.0, 12.0);
+  int checks = 0;
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(spec, [&] { return ++checks > 5; }); }),
+            StatusCode::kCancelled);
+  EXPECT_EQ(checks, 6);
+}
+
+TEST(EvaluateTest, TheWorkerPoolRunsJobsInParallelAndPropagatesErrors) {
+  WorkerPool pool(2);
+  EXPECT_EQ(pool.size(), 2u);
+  auto a = pool.Submit([] { return RunEvaluation(QuadrupedEvaluation(0.5, 1.0), nullptr); });
+  auto b = pool.Submit([] { return RunEvaluation(QuadrupedEvaluation(0.5, 1.0), nullptr); });
+  EXPECT_EQ(a.get().velocity, b.get().velocity);
+  auto bad = pool.Submit([]() -> int { throw Error(StatusCode::kNotFound, "nope"); });
+  EXPECT_EQ(CodeOf([&] { bad.get(); }), StatusCode::kNotFound);
+  pool.Shutdown();
+  EXPECT_EQ(CodeOf([&] { pool.Submit([] { return 1; }); }), StatusCode::kUnavailable);
+}
+
+}  // namespace
+}  // namespace yamor::host

@@ -1,0 +1,326 @@
+// End to end: the real yamord binary on an ephemeral port, driven over gRPC.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+#include "tests/host/grpc_util.h"
+#include "yamor/v1/host.grpc.pb.h"
+
+namespace yamor::host {
+namespace {
+
+namespace v1 = yamor::v1;
+using google::protobuf::Empty;
+using Clock = std::chrono::steady_clock;
+
+const char* const kYamord = YAMORD_PATH;
+
+// A yamord child process. stdout is a pipe (the "listening on" line);
+// stderr goes to the test's stderr.
+class Daemon {
+ public:
+  explicit Daemon(std::vector<std::string> args) {
+    args.insert(args.begin(), kYamord);
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(fds[1], STDOUT_FILENO);
+      close(fds[0]);
+      close(fds[1]);
+      execv(kYamord, argv.data());
+      _exit(127);
+    }
+    close(fds[1]);
+    out_ = fds[0];
+  }
+  ~Daemon() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    if (out_ >= 0) close(out_);
+  }
+
+  // Everything the daemon printed to stdout until it closed it or `timeout`.
+  std::string ReadAll(std::chrono::seconds timeout = std::chrono::seconds(30)) {
+    std::string text;
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+      pollfd p{out_, POLLIN, 0};
+      if (poll(&p, 1, 100) <= 0) continue;
+      char buffer[4096];
+      const ssize_t n = read(out_, buffer, sizeof buffer);
+      if (n <= 0) break;
+      text.append(buffer, static_cast<std::size_t>(n));
+    }
+    return text;
+  }
+
+  // Waits for "yamord: listening on HOST:PORT" and returns the port (0 on failure).
+  int WaitForPort() {
+    std::string line;
+    const auto deadline = Clock::now() + std::chrono::seconds(30);
+    while (Clock::now() < deadline) {
+      pollfd p{out_, POLLIN, 0};
+      if (poll(&p, 1, 100) <= 0) continue;
+      char c = 0;
+      if (read(out_, &c, 1) != 1) return 0;
+      if (c != '\n') {
+        line.push_back(c);
+        continue;
+      }
+      const std::string prefix = "yamord: listening on 127.0.0.1:";
+      if (line.rfind(prefix, 0) == 0) return std::stoi(line.substr(prefix.size()));
+      line.clear();
+    }
+    return 0;
+  }
+
+  // Waits up to `timeout` for the exit; the exit status, or -1 if it did not
+  // exit (a hang guard, not a performance check), or -2 if killed by a signal.
+  int WaitForExit(std::chrono::seconds timeout) {
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+      int status = 0;
+      const pid_t r = waitpid(pid_, &status, WNOHANG);
+      if (r == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return -1;
+  }
+
+  void Signal(int signal) { kill(pid_, signal); }
+
+ private:
+  pid_t pid_ = -1;
+  int out_ = -1;
+};
+
+// A running yamord with a channel to it.
+struct Connection {
+  explicit Connection(std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"--listen", "127.0.0.1:0", "--log-level", "warn"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    daemon = std::make_unique<Daemon>(args);
+    port = daemon->WaitForPort();
+    channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
+                                  grpc::InsecureChannelCredentials());
+    stub = v1::Host::NewStub(channel);
+  }
+  std::unique_ptr<Daemon> daemon;
+  int port = 0;
+  std::shared_ptr<grpc::Channel> channel;
+  std::unique_ptr<v1::Host::Stub> stub;
+};
+
+template <typename Request, typename Response>
+grpc::Status Call(v1::Host::Stub& stub,
+                  grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
+                                                         Response*),
+                  const Request& request, Response* response = nullptr) {
+  grpc::ClientContext context;
+  testing::SetDeadline(context, 120);
+  Response scratch;
+  return (stub.*method)(&context, request, response ? response : &scratch);
+}
+
+#define ASSERT_OK(expr)                                                        \
+  do {                                                                         \
+    const grpc::Status status_ = (expr);                                       \
+    ASSERT_TRUE(status_.ok()) << #expr << ": " << status_.error_code() << " " \
+                              << status_.error_message();                      \
+  } while (false)
+
+TEST(YamordTest, TheThesisSessionOverGrpcHealthAndReflection) {
+  Connection c({"--workers", "2"});
+  ASSERT_GT(c.port, 0) << "yamord did not report its port";
+  v1::Host::Stub& stub = *c.stub;
+
+  int serving = 0;
+  ASSERT_OK(testing::HealthCheck(c.channel, "", &serving));
+  EXPECT_EQ(serving, 1) << "health: SERVING";
+  std::vector<std::string> services;
+  ASSERT_OK(testing::ListServices(c.channel, &services));
+  EXPECT_NE(std::find(services.begin(), services.end(), "yamor.v1.Host"), services.end());
+  EXPECT_NE(std::find(services.begin(), services.end(), "grpc.health.v1.Health"), services.end());
+  std::vector<google::protobuf::FileDescriptorProto> files;
+  ASSERT_OK(testing::DescribeSymbol(c.channel, "yamor.v1.Host", &files));
+  bool has_evaluate = false;
+  for (const auto& file : files) {
+    for (const auto& service : file.service()) {
+      if (service.name() != "Host") continue;
+      for (const auto& method : service.method()) has_evaluate |= method.name() == "Evaluate";
+    }
+  }
+  EXPECT_TRUE(has_evaluate) << "reflection describes yamor.v1.Host with its methods";
+
+  // yamord alone is ready to drive: the quadruped is open.
+  v1::GetInfoResponse info;
+  ASSERT_OK(Call(stub, &v1::Host::Stub::GetInfo, Empty(), &info));
+  EXPECT_EQ(info.backend(), "simulation");
+  EXPECT_EQ(info.world(), "quadruped");
+  EXPECT_EQ(info.worker_capacity(), 2u);
+
+  // The thesis session: open, connect, control on, set parameters, sleep 20 s.
+  v1::OpenSimulationRequest open;
+  open.set_world("quadruped");
+  ASSERT_OK(Call(stub, &v1::Host::Stub::OpenSimulation, open));
+  v1::ConnectRobotResponse connected;
+  ASSERT_OK(Call(stub, &v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest(), &connected));
+  EXPECT_EQ(connected.links(), 8u);
+  v1::ControlMessageRequest control;
+  control.set_uart(v1::SWITCH_ON);
+  control.set_cpg(v1::SWITCH_ON);
+  control.set_motors(v1::SWITCH_ON);
+  control.set_all(true);
+  ASSERT_OK(Call(stub, &v1::Host::Stub::SendControlMessage, control));
+  for (uint32_t hip = 0; hip < 4; ++hip) {
+    v1::SetModuleValueRequest speed;
+    speed.set_module_id(hip);
+    speed.set_value(0.35);
+    ASSERT_OK(Call(stub, &v1::Host::Stub::SetModuleSpeed, speed));
+  }
+  v1::FlushResponse flushed;
+  ASSERT_OK(Call(stub, &v1::Host::Stub::Flush, Empty(), &flushed));
+  EXPECT_EQ(flushed.frames_sent(), 4u);
+  v1::RobotPositionResponse start, end;
+  ASSERT_OK(Call(stub, &v1::Host::Stub::RobotPosition, Empty(), &start));
+  v1::SleepRequest sleep;
+  sleep.set_seconds(20.0);
+  v1::SleepResponse slept;
+  ASSERT_OK(Call(stub, &v1::Host::Stub::Sleep, sleep, &slept));
+  EXPECT_NEAR(slept.time(), 20.0, 1e-9);
+  ASSERT_OK(Call(stub, &v1::Host::Stub::RobotPosition, Empty(), &end));
+  const double moved = std::hypot(end.position().x() - start.position().x(),
+                                  end.position().y() - start.position().y());
+  EXPECT_GT(moved, 0.05) << "the quadruped moved " << moved << " m in 20 s";
+  std::cerr << "the quadruped moved " << moved << " m in 20 s of virtual time\n";
+
+  c.daemon->Signal(SIGTERM);
+  EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+}
+
+TEST(YamordTest, EvaluateIsDeterministicAndRunsInParallel) {
+  Connection c({"--workers", "2"});
+  ASSERT_GT(c.port, 0);
+  v1::EvaluateRequest request;
+  request.set_warmup(1.0);
+  request.set_duration(2.0);
+  request.set_seed(42);
+  auto* p = request.add_parameters();
+  p->set_name("phase.0.1");
+  p->set_value(2.5);
+  v1::EvaluateResponse first, second;
+  ASSERT_OK(Call(*c.stub, &v1::Host::Stub::Evaluate, request, &first));
+  ASSERT_OK(Call(*c.stub, &v1::Host::Stub::Evaluate, request, &second));
+  EXPECT_FALSE(first.diverged());
+  EXPECT_EQ(first.velocity(), second.velocity()) << "same seed, same velocity";
+  EXPECT_DOUBLE_EQ(first.velocity(), first.distance() / 2.0);
+
+  v1::EvaluateResponse a, b;
+  grpc::Status sa, sb;
+  std::thread ta([&] { sa = Call(*c.stub, &v1::Host::Stub::Evaluate, request, &a); });
+  std::thread tb([&] { sb = Call(*c.stub, &v1::Host::Stub::Evaluate, request, &b); });
+  ta.join();
+  tb.join();
+  ASSERT_OK(sa);
+  ASSERT_OK(sb);
+  EXPECT_EQ(a.velocity(), first.velocity());
+  EXPECT_EQ(b.velocity(), first.velocity());
+
+  c.daemon->Signal(SIGINT);
+  EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+}
+
+TEST(YamordTest, SigtermDuringALongSleepDrainsAndExitsZero) {
+  Connection c;
+  ASSERT_GT(c.port, 0);
+  ASSERT_OK(Call(*c.stub, &v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest()));
+  grpc::Status sleep_status;
+  std::thread sleeper([&] {
+    v1::SleepRequest sleep;
+    sleep.set_seconds(80000.0);  // most of a day of virtual time: far longer than the test
+    sleep_status = Call(*c.stub, &v1::Host::Stub::Sleep, sleep);
+  });
+  // Wait until the world is being stepped by that Sleep.
+  v1::ElapsedTimeResponse elapsed;
+  grpc::Status poll_status;
+  for (int i = 0; i < 3000 && elapsed.seconds() < 0.5 && poll_status.ok(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    poll_status = Call(*c.stub, &v1::Host::Stub::ElapsedTime, Empty(), &elapsed);
+  }
+  EXPECT_TRUE(poll_status.ok()) << poll_status.error_message();
+  EXPECT_GE(elapsed.seconds(), 0.5) << "the Sleep never started stepping";
+  const auto signalled = Clock::now();
+  c.daemon->Signal(SIGTERM);
+  // Generous hang guard: the drain itself takes well under a second.
+  EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(10)), 0);
+  const double drain = std::chrono::duration<double>(Clock::now() - signalled).count();
+  sleeper.join();
+  EXPECT_TRUE(sleep_status.error_code() == grpc::StatusCode::CANCELLED ||
+              sleep_status.error_code() == grpc::StatusCode::UNAVAILABLE)
+      << sleep_status.error_code() << " " << sleep_status.error_message();
+  std::cerr << "yamord drained and exited " << drain << " s after SIGTERM; the Sleep got "
+            << sleep_status.error_code() << " (" << sleep_status.error_message() << ")\n";
+}
+
+TEST(YamordTest, SettingsFileFlagsAndPrintConfig) {
+  const std::string path = ::testing::TempDir() + "/yamord_test_settings.toml";
+  {
+    std::ofstream out(path);
+    out << "listen = \"127.0.0.1:0\"\nworld = \"snake\"\nworkers = 3\nmaster = 0\n"
+           "link_timeout = 1.5\n[id_map]\n0 = 0\n";
+  }
+  {
+    Daemon d({"--settings", path, "--workers", "5", "--print-config"});
+    const std::string text = d.ReadAll();
+    EXPECT_EQ(d.WaitForExit(std::chrono::seconds(20)), 0);
+    EXPECT_NE(text.find("world = 'snake'"), std::string::npos) << text;
+    EXPECT_NE(text.find("workers = 5"), std::string::npos) << "flags override the file\n" << text;
+    EXPECT_NE(text.find("master = 0"), std::string::npos) << text;
+    EXPECT_NE(text.find("link_timeout = 1.5"), std::string::npos) << text;
+  }
+  {
+    Connection c({"--settings", path});
+    ASSERT_GT(c.port, 0);
+    v1::GetInfoResponse info;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::GetInfo, Empty(), &info));
+    EXPECT_EQ(info.world(), "snake");
+    EXPECT_EQ(info.worker_capacity(), 3u);
+    c.daemon->Signal(SIGTERM);
+    EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+  }
+  {
+    std::ofstream out(path);
+    out << "listen = \"127.0.0.1:0\"\nwrold = \"snake\"\n";
+  }
+  {
+    Daemon d({"--settings", path});
+    EXPECT_EQ(d.ReadAll().find("listening"), std::string::npos);
+    EXPECT_EQ(d.WaitForExit(std::chrono::seconds(20)), 2) << "unknown setting: exit 2";
+  }
+  {
+    Daemon d({"--listen", "127.0.0.1:0", "--world", "unicorn"});
+    EXPECT_EQ(d.WaitForExit(std::chrono::seconds(20)), 2) << "unknown world: exit 2";
+  }
+}
+
+}  // namespace
+}  // namespace yamor::host
