@@ -32,3 +32,12 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   "$venv/bin/python" -m pip install -q --disable-pip-version-check -r "$req"
   echo "$want" > "$stamp"
 fi
+
+# The Python client (tools/python, `import yamor`), editable so the checkout's
+# code and stubs are what runs; skipped when this checkout's is installed.
+if ! "$venv/bin/python" -I -c 'import os, sys, yamor
+sys.exit(os.path.dirname(os.path.dirname(os.path.realpath(yamor.__file__))) != os.path.realpath(sys.argv[1]))' \
+    "$root/tools/python" 2>/dev/null; then
+  echo "deps: installing the yamor Python client (tools/python)"
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check -e "$root/tools/python"
+fi

@@ -1,0 +1,878 @@
+#include "tools/yamorctl/yamorctl.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <grpcpp/grpcpp.h>
+
+#include "common/status.h"
+#include "tools/yamorctl/format.h"
+#include "yamor/v1/host.grpc.pb.h"
+
+namespace yamor::yamorctl {
+namespace {
+
+using google::protobuf::Empty;
+
+constexpr char kFooter[] = R"(Output: readable text; with --json the RPC's response as one line of
+proto3 JSON (field names as in yamor/v1/host.proto, "{}" for calls without
+a result; watch prints one object per update).
+
+Deadlines: every call has one: --timeout (default 10 s); when --timeout is
+not given, sleep adds its duration, evaluate its warm-up plus duration,
+connect its --link-timeout, script 60 s, and watch --count N adds N periods
+(a watch without --count has no deadline: stop it with Ctrl-C).
+
+Exit status:
+   0  success
+   2  usage error: bad command line or unreadable/unwritable local file
+      (also UNKNOWN from the daemon)
+   otherwise the gRPC status code of the failed call, with the message on
+   stderr as "yamorctl: CODE: message":
+   1 CANCELLED             8 RESOURCE_EXHAUSTED   12 UNIMPLEMENTED
+   3 INVALID_ARGUMENT      9 FAILED_PRECONDITION  13 INTERNAL
+   4 DEADLINE_EXCEEDED    11 OUT_OF_RANGE         14 UNAVAILABLE (no daemon)
+   5 NOT_FOUND                                    16 UNAUTHENTICATED
+
+Address: --host, else $YAMORCTL_HOST, else 127.0.0.1:2224.)";
+
+// Largest deadline we set [s]: far beyond any real call, safe for chrono.
+constexpr double kMaxDeadlineSeconds = 1e8;
+
+/// Options shared by every command.
+struct GlobalOptions {
+  std::string host{kDefaultHost};
+  bool json = false;
+  double timeout = kDefaultTimeout;
+  bool timeout_given = false;
+};
+
+template <typename Request, typename Response>
+using UnaryMethod = grpc::Status (v1::Host::Stub::*)(grpc::ClientContext*, const Request&,
+                                                     Response*);
+
+/// A usage-level problem found after parsing (bad file, bad "name=value").
+struct UsageError {
+  std::string message;
+};
+
+/// One command line's connection to the daemon plus its output streams.
+/// Thread-safety: single-threaded (one per Run call).
+class Session {
+ public:
+  Session(const GlobalOptions& options, std::ostream& out, std::ostream& err)
+      : options_(options),
+        out_(out),
+        err_(err),
+        stub_(v1::Host::NewStub(
+            grpc::CreateChannel(options.host, grpc::InsecureChannelCredentials()))) {}
+
+  std::ostream& out() { return out_; }
+  std::ostream& err() { return err_; }
+  bool json() const { return options_.json; }
+  v1::Host::Stub& stub() { return *stub_; }
+
+  /// Deadline of a call [s]: --timeout when given, else the default plus
+  /// `work_seconds` (the time the call is expected to take).
+  double Timeout(double work_seconds = 0.0) const {
+    if (options_.timeout_given) return options_.timeout;
+    const double work = std::isfinite(work_seconds) ? std::max(0.0, work_seconds) : 0.0;
+    return options_.timeout + work;
+  }
+
+  /// Sets the deadline of `context` `seconds` from now.
+  static void SetDeadline(grpc::ClientContext& context, double seconds) {
+    const double clamped = std::clamp(seconds, 1e-3, kMaxDeadlineSeconds);
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::microseconds(static_cast<int64_t>(clamped * 1e6)));
+  }
+
+  /// Runs a unary call with a deadline of `timeout` seconds; reports a
+  /// failure on stderr and returns the exit status.
+  template <typename Request, typename Response>
+  int Call(UnaryMethod<Request, Response> method, const Request& request, Response* response,
+           double timeout) {
+    grpc::ClientContext context;
+    SetDeadline(context, timeout);
+    return Report((stub_.get()->*method)(&context, request, response));
+  }
+
+  /// Prints "yamorctl: CODE: message" for a failed status; returns its code.
+  int Report(const grpc::Status& status) {
+    if (status.ok()) return 0;
+    err_ << "yamorctl: " << StatusCodeName(static_cast<StatusCode>(status.error_code())) << ": "
+         << status.error_message() << "\n";
+    return static_cast<int>(status.error_code());
+  }
+
+  /// Prints `response` as JSON, or as `readable(response)` text.
+  template <typename Response, typename Readable>
+  void Print(const Response& response, Readable&& readable) {
+    if (options_.json) {
+      out_ << ToJson(response) << "\n";
+    } else {
+      out_ << readable(response);
+    }
+  }
+
+  /// A call whose readable output is `readable(response)`.
+  template <typename Request, typename Response, typename Readable>
+  int Unary(UnaryMethod<Request, Response> method, const Request& request, double timeout,
+            Readable&& readable) {
+    Response response;
+    if (const int code = Call(method, request, &response, timeout); code != 0) return code;
+    Print(response, readable);
+    return 0;
+  }
+
+  /// A call with no readable output (prints "{}" with --json).
+  template <typename Request, typename Response>
+  int Unary(UnaryMethod<Request, Response> method, const Request& request, double timeout) {
+    return Unary(method, request, timeout, [](const Response&) { return std::string(); });
+  }
+
+ private:
+  GlobalOptions options_;
+  std::ostream& out_;
+  std::ostream& err_;
+  std::unique_ptr<v1::Host::Stub> stub_;
+};
+
+using Action = std::function<int(Session&)>;
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw UsageError{"cannot read " + path};
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) throw UsageError{"cannot read " + path};
+  return text.str();
+}
+
+void WriteFile(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw UsageError{"cannot write " + path};
+}
+
+// ---- get / set ------------------------------------------------------------------
+
+/// A per-module oscillator parameter and its two RPCs.
+struct ModuleParameter {
+  const char* name;  // DESIGN parameter name, e.g. "amplitude"
+  const char* unit;
+  const char* help;
+  UnaryMethod<v1::ModuleRequest, v1::ValueResponse> get;
+  UnaryMethod<v1::SetModuleValueRequest, Empty> set;
+};
+
+const std::array<ModuleParameter, 5> kModuleParameters{{
+    {"amplitude", "rad", "oscillator amplitude [rad]", &v1::Host::Stub::GetModuleAmplitude,
+     &v1::Host::Stub::SetModuleAmplitude},
+    {"offset", "rad", "oscillator offset [rad]", &v1::Host::Stub::GetModuleOffset,
+     &v1::Host::Stub::SetModuleOffset},
+    {"speed", "Hz", "oscillator frequency [Hz]", &v1::Host::Stub::GetModuleSpeed,
+     &v1::Host::Stub::SetModuleSpeed},
+    {"minangle", "rad", "lower servo set-point limit [rad]", &v1::Host::Stub::GetModuleMinAngle,
+     &v1::Host::Stub::SetModuleMinAngle},
+    {"maxangle", "rad", "upper servo set-point limit [rad]", &v1::Host::Stub::GetModuleMaxAngle,
+     &v1::Host::Stub::SetModuleMaxAngle},
+}};
+
+/// A coupling parameter and its two RPCs.
+struct CouplingParameter {
+  const char* name;  // "phase" or "weight"
+  const char* unit;
+  const char* help;
+  UnaryMethod<v1::CouplingRequest, v1::ValueResponse> get;
+  UnaryMethod<v1::SetCouplingValueRequest, Empty> set;
+};
+
+const std::array<CouplingParameter, 2> kCouplingParameters{{
+    {"phase", "rad", "phase bias of the coupling FROM -> TO [rad]",
+     &v1::Host::Stub::GetCouplingPhase, &v1::Host::Stub::SetCouplingPhase},
+    {"weight", "", "weight of the coupling FROM -> TO", &v1::Host::Stub::GetCouplingWeight,
+     &v1::Host::Stub::SetCouplingWeight},
+}};
+
+std::string ValueLine(const std::string& name, double value, const char* unit) {
+  return fmt::format("{} = {}{}{}\n", name, value, *unit ? " " : "", unit);
+}
+
+void AddGetSet(CLI::App& app, Action& action) {
+  CLI::App* get = app.add_subcommand("get", "Read a module or coupling parameter");
+  CLI::App* set =
+      app.add_subcommand("set", "Change a module or coupling parameter (queued until flush)");
+  get->require_subcommand(1);
+  set->require_subcommand(1);
+  for (const ModuleParameter& p : kModuleParameters) {
+    auto id = std::make_shared<uint32_t>();
+    auto value = std::make_shared<double>();
+    CLI::App* g = get->add_subcommand(p.name, std::string("Get the ") + p.help + " of module ID");
+    g->add_option("ID", *id, "Module id")->required();
+    g->callback([&action, &p, id] {
+      action = [&p, id](Session& s) {
+        v1::ModuleRequest request;
+        request.set_module_id(*id);
+        return s.Unary(p.get, request, s.Timeout(), [&](const v1::ValueResponse& r) {
+          return ValueLine(fmt::format("{}.{}", p.name, *id), r.value(), p.unit);
+        });
+      };
+    });
+    CLI::App* st = set->add_subcommand(p.name, std::string("Set the ") + p.help + " of module ID");
+    st->add_option("ID", *id, "Module id")->required();
+    st->add_option("VALUE", *value, std::string("New value [") + p.unit + "]")->required();
+    st->callback([&action, &p, id, value] {
+      action = [&p, id, value](Session& s) {
+        v1::SetModuleValueRequest request;
+        request.set_module_id(*id);
+        request.set_value(*value);
+        return s.Unary(p.set, request, s.Timeout());
+      };
+    });
+  }
+  for (const CouplingParameter& p : kCouplingParameters) {
+    auto from = std::make_shared<uint32_t>();
+    auto to = std::make_shared<uint32_t>();
+    auto value = std::make_shared<double>();
+    CLI::App* g = get->add_subcommand(p.name, std::string("Get the ") + p.help);
+    g->add_option("FROM", *from, "Module whose equation holds the coupling term")->required();
+    g->add_option("TO", *to, "Module whose state drives it")->required();
+    g->callback([&action, &p, from, to] {
+      action = [&p, from, to](Session& s) {
+        v1::CouplingRequest request;
+        request.set_from_id(*from);
+        request.set_to_id(*to);
+        return s.Unary(p.get, request, s.Timeout(), [&](const v1::ValueResponse& r) {
+          return ValueLine(fmt::format("{}.{}.{}", p.name, *from, *to), r.value(), p.unit);
+        });
+      };
+    });
+    CLI::App* st = set->add_subcommand(p.name, std::string("Set the ") + p.help);
+    st->add_option("FROM", *from, "Module whose equation holds the coupling term")->required();
+    st->add_option("TO", *to, "Module whose state drives it")->required();
+    st->add_option("VALUE", *value, "New value")->required();
+    st->callback([&action, &p, from, to, value] {
+      action = [&p, from, to, value](Session& s) {
+        v1::SetCouplingValueRequest request;
+        request.set_from_id(*from);
+        request.set_to_id(*to);
+        request.set_value(*value);
+        return s.Unary(p.set, request, s.Timeout());
+      };
+    });
+  }
+}
+
+// ---- commands without arguments -------------------------------------------------
+
+void AddSimpleCommands(CLI::App& app, Action& action) {
+  auto simple = [&](const char* name, const char* help, Action body) {
+    app.add_subcommand(name, help)->callback([&action, body] { action = body; });
+  };
+  const Empty empty;
+  simple("time", "Elapsed (virtual) time since the simulation was opened", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::ElapsedTime, empty, s.Timeout(),
+                   [](const v1::ElapsedTimeResponse& r) {
+                     return fmt::format("{:.3f} s\n", r.seconds());
+                   });
+  });
+  simple("position", "Position of the central (tracked) module", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::RobotPosition, empty, s.Timeout(), FormatPosition);
+  });
+  simple("sim-enabled", "Whether a simulation is open", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::SimulationModeEnabled, empty, s.Timeout(),
+                   [](const v1::SimulationModeEnabledResponse& r) {
+                     return std::string(r.enabled() ? "simulation enabled\n"
+                                                    : "simulation disabled\n");
+                   });
+  });
+  simple("close", "Close the simulation", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::CloseSimulation, empty, s.Timeout());
+  });
+  simple("flush", "Send queued parameter changes to the robot", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::Flush, empty, s.Timeout(), [](const v1::FlushResponse& r) {
+      return fmt::format("flushed: {} frames sent\n", r.frames_sent());
+    });
+  });
+  simple("refresh", "Resend every parameter of the configuration", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::Refresh, empty, s.Timeout(), [](const v1::FlushResponse& r) {
+      return fmt::format("refreshed: {} frames sent\n", r.frames_sent());
+    });
+  });
+  simple("modules", "Ids of all modules, in configuration order", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::GetAllModulesId, empty, s.Timeout(),
+                   [](const v1::GetAllModulesIdResponse& r) {
+                     std::string text;
+                     for (uint32_t id : r.module_ids()) {
+                       if (!text.empty()) text += ' ';
+                       text += std::to_string(id);
+                     }
+                     return text + "\n";
+                   });
+  });
+  simple("uncouple-all", "Remove every coupling (queued until flush)", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::RemoveAllCoupling, empty, s.Timeout());
+  });
+  simple("info", "Daemon version, backend, world, workers", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::GetInfo, empty, s.Timeout(), FormatInfo);
+  });
+  simple("reset", "Restore the simulation to its state when opened (time 0)", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::ResetSimulation, empty, s.Timeout());
+  });
+}
+
+// ---- simulation, connection, control ---------------------------------------------
+
+void AddSessionCommands(CLI::App& app, Action& action) {
+  {
+    struct Args {
+      std::string world, morphology_file, config_file;
+      uint64_t seed = 0;
+      double step = 0.0;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand("open", "Open a simulation (replaces the open one)");
+    auto* world = c->add_option("--world", a->world, "Built-in world name (default: the daemon's)");
+    c->add_option("--morphology", a->morphology_file, "Morphology XML file (instead of --world)")
+        ->excludes(world);
+    c->add_option("--config", a->config_file,
+                  "Robot configuration XML file (default: the world's built-in one)");
+    c->add_option("--seed", a->seed, "Seed of the world's random sources");
+    c->add_option("--step", a->step, "Physics step [s] (0: default)");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::OpenSimulationRequest request;
+        request.set_world(a->world);
+        if (!a->morphology_file.empty()) request.set_morphology_xml(ReadFile(a->morphology_file));
+        if (!a->config_file.empty()) request.set_config_xml(ReadFile(a->config_file));
+        request.set_seed(a->seed);
+        request.set_time_step(a->step);
+        return s.Unary(&v1::Host::Stub::OpenSimulation, request, s.Timeout(), FormatOpened);
+      };
+    });
+  }
+  {
+    struct Args {
+      double link_timeout = 0.0;
+      bool links_only = false;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "connect", "Build the robot's bluetooth network, then send the configuration");
+    c->add_option("--link-timeout", a->link_timeout,
+                  "Wait for each link's acknowledgement [s] (0: daemon default)")
+        ->check(CLI::NonNegativeNumber);
+    c->add_flag("--links-only", a->links_only, "Only build the links; send no configuration");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::ConnectRobotRequest request;
+        request.set_link_timeout(a->link_timeout);
+        request.set_links_only(a->links_only);
+        return s.Unary(&v1::Host::Stub::ConnectRobot, request, s.Timeout(a->link_timeout),
+                       FormatConnected);
+      };
+    });
+  }
+  {
+    struct Args {
+      std::string uart, cpg, motors;
+      std::vector<std::string> targets;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "control", "Tristate control message (thesis C.2.4); omitted switches stay unchanged");
+    const auto on_off = CLI::IsMember({"on", "off"});
+    c->add_option("--uart", a->uart, "Sensor board serial line: on|off")->check(on_off);
+    c->add_option("--cpg", a->cpg, "Oscillator: on|off")->check(on_off);
+    c->add_option("--motors", a->motors, "Servo power: on|off")->check(on_off);
+    c->add_option("TARGETS", a->targets, "all, or module ids")->required();
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        auto to_switch = [](const std::string& v) {
+          if (v.empty()) return v1::SWITCH_UNCHANGED;
+          return v == "on" ? v1::SWITCH_ON : v1::SWITCH_OFF;
+        };
+        v1::ControlMessageRequest request;
+        request.set_uart(to_switch(a->uart));
+        request.set_cpg(to_switch(a->cpg));
+        request.set_motors(to_switch(a->motors));
+        std::pair<bool, std::vector<uint32_t>> targets;
+        try {
+          targets = ParseModuleTargets(a->targets);
+        } catch (const Error& e) {
+          throw UsageError{e.what()};
+        }
+        request.set_all(targets.first);
+        for (uint32_t id : targets.second) request.add_module_ids(id);
+        return s.Unary(&v1::Host::Stub::SendControlMessage, request, s.Timeout());
+      };
+    });
+  }
+  {
+    struct Args {
+      double seconds = 0.0;
+      bool real = false;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "sleep",
+        "Let the robot run: virtual time (as fast as possible) or, with --real, the clock");
+    c->add_option("SECONDS", a->seconds, "Duration [s]")->required();
+    c->add_flag("--real", a->real, "Wait on the clock even in simulation");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::SleepRequest request;
+        request.set_seconds(a->seconds);
+        request.set_real_time(a->real);
+        return s.Unary(&v1::Host::Stub::Sleep, request, s.Timeout(a->seconds),
+                       [](const v1::SleepResponse& r) {
+                         return fmt::format("time {:.3f} s\n", r.time());
+                       });
+      };
+    });
+  }
+  {
+    auto factor = std::make_shared<double>();
+    CLI::App* c = app.add_subcommand(
+        "freerun", "Step the world in the background at a real-time factor (0: off)");
+    c->add_option("FACTOR", *factor, "Simulated seconds per wall-clock second")->required();
+    c->callback([&action, factor] {
+      action = [factor](Session& s) {
+        v1::SetFreeRunRequest request;
+        request.set_real_time_factor(*factor);
+        return s.Unary(&v1::Host::Stub::SetFreeRun, request, s.Timeout());
+      };
+    });
+  }
+  {
+    struct Args {
+      uint32_t from = 0, to = 0;
+      double phase = 0.0, weight = 0.0;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand("couple", "Add (or replace) the coupling FROM -> TO");
+    c->add_option("FROM", a->from, "Module whose equation holds the coupling term")->required();
+    c->add_option("TO", a->to, "Module whose state drives it")->required();
+    c->add_option("PHASE", a->phase, "Phase bias [rad]")->required();
+    c->add_option("WEIGHT", a->weight, "Weight")->required();
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::AddCouplingRequest request;
+        request.set_from_id(a->from);
+        request.set_to_id(a->to);
+        request.set_phase(a->phase);
+        request.set_weight(a->weight);
+        return s.Unary(&v1::Host::Stub::AddCoupling, request, s.Timeout());
+      };
+    });
+  }
+}
+
+// ---- configuration, morphology, faults, sensors -----------------------------------
+
+const std::map<std::string, v1::ConnectorName> kConnectors{
+    {"front", v1::CONNECTOR_FRONT}, {"rear", v1::CONNECTOR_REAR},
+    {"left", v1::CONNECTOR_LEFT},   {"right", v1::CONNECTOR_RIGHT},
+    {"top", v1::CONNECTOR_TOP},     {"bottom", v1::CONNECTOR_BOTTOM},
+};
+
+/// Prints `xml` (readable) or writes it to `file` when one is given.
+std::string XmlOut(const std::string& xml, const std::string& file) {
+  if (file.empty()) return xml.empty() || xml.back() == '\n' ? xml : xml + "\n";
+  WriteFile(file, xml);
+  return "";
+}
+
+void AddModelCommands(CLI::App& app, Action& action) {
+  {
+    auto file = std::make_shared<std::string>();
+    CLI::App* c = app.add_subcommand("load", "Replace the robot configuration with an XML file");
+    c->add_option("FILE", *file, "Robot configuration (thesis schema)")->required();
+    c->callback([&action, file] {
+      action = [file](Session& s) {
+        v1::LoadConfigRequest request;
+        request.set_config_xml(ReadFile(*file));
+        request.set_source_name(*file);
+        return s.Unary(&v1::Host::Stub::LoadConfig, request, s.Timeout());
+      };
+    });
+  }
+  {
+    auto file = std::make_shared<std::string>();
+    CLI::App* c = app.add_subcommand("save", "The robot configuration as XML (stdout or FILE)");
+    c->add_option("FILE", *file, "Write here instead of stdout");
+    c->callback([&action, file] {
+      action = [file](Session& s) {
+        return s.Unary(&v1::Host::Stub::SaveConfig, Empty(), s.Timeout(),
+                       [&](const v1::SaveConfigResponse& r) {
+                         return XmlOut(r.config_xml(), *file);
+                       });
+      };
+    });
+  }
+  {
+    auto file = std::make_shared<std::string>();
+    CLI::App* c = app.add_subcommand(
+        "morphology", "The open world's morphology as XML (stdout or FILE)");
+    c->add_option("FILE", *file, "Write here instead of stdout");
+    c->callback([&action, file] {
+      action = [file](Session& s) {
+        return s.Unary(&v1::Host::Stub::GetMorphology, Empty(), s.Timeout(),
+                       [&](const v1::GetMorphologyResponse& r) {
+                         return XmlOut(r.morphology_xml(), *file);
+                       });
+      };
+    });
+  }
+  {
+    struct Args {
+      uint32_t from = 0, to = 0;
+      std::string from_connector, to_connector;
+      double angle = 0.0;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "attach", "Physically attach free module FROM to module TO (thesis C.2.7)");
+    std::vector<std::string> names;
+    for (const auto& [name, value] : kConnectors) names.push_back(name);
+    c->add_option("FROM", a->from, "Module that moves (must be free)")->required();
+    c->add_option("FCONN", a->from_connector, "Connector of FROM: front|rear|left|right|top|bottom")
+        ->required()
+        ->check(CLI::IsMember(names));
+    c->add_option("TO", a->to, "Module that stays")->required();
+    c->add_option("TCONN", a->to_connector, "Connector of TO")
+        ->required()
+        ->check(CLI::IsMember(names));
+    c->add_option("ANGLE", a->angle, "Connection angle [degrees], multiple of 15")->required();
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::ConnectModulesRequest request;
+        request.set_from_id(a->from);
+        request.set_from_connector(kConnectors.at(a->from_connector));
+        request.set_to_id(a->to);
+        request.set_to_connector(kConnectors.at(a->to_connector));
+        request.set_angle_degrees(a->angle);
+        return s.Unary(&v1::Host::Stub::ConnectModules, request, s.Timeout());
+      };
+    });
+  }
+  {
+    auto id = std::make_shared<uint32_t>();
+    CLI::App* c = app.add_subcommand("detach", "Detach module ID from the robot and put it away");
+    c->add_option("ID", *id, "Module id")->required();
+    c->callback([&action, id] {
+      action = [id](Session& s) {
+        v1::ModuleRequest request;
+        request.set_module_id(*id);
+        return s.Unary(&v1::Host::Stub::DisconnectModule, request, s.Timeout());
+      };
+    });
+  }
+  {
+    auto file = std::make_shared<std::string>();
+    CLI::App* c = app.add_subcommand(
+        "script", "Run a transformation script (connect, disconnect, pause)");
+    c->add_option("FILE", *file, "Script XML")->required();
+    c->callback([&action, file] {
+      action = [file](Session& s) {
+        v1::RunTransformationScriptRequest request;
+        request.set_script_xml(ReadFile(*file));
+        return s.Unary(&v1::Host::Stub::RunTransformationScript, request, s.Timeout(60.0));
+      };
+    });
+  }
+  {
+    CLI::App* defect = app.add_subcommand("defect", "Break or repair a motor or a module");
+    defect->require_subcommand(1);
+    struct MotorArgs {
+      uint32_t id = 0;
+      std::string state;
+    };
+    auto m = std::make_shared<MotorArgs>();
+    CLI::App* motor = defect->add_subcommand(
+        "motor", "Motor defect (thesis C.2.6): limp (no torque), stuck (locked) or ok");
+    motor->add_option("ID", m->id, "Module id")->required();
+    motor->add_option("STATE", m->state, "limp|stuck|ok")
+        ->required()
+        ->check(CLI::IsMember({"limp", "stuck", "ok"}));
+    motor->callback([&action, m] {
+      action = [m](Session& s) {
+        v1::SetMotorDefectRequest request;
+        request.set_module_id(m->id);
+        request.set_defect(m->state == "limp"    ? v1::MOTOR_LIMP
+                           : m->state == "stuck" ? v1::MOTOR_STUCK
+                                                 : v1::MOTOR_OK);
+        return s.Unary(&v1::Host::Stub::SetMotorDefect, request, s.Timeout());
+      };
+    });
+    auto d = std::make_shared<MotorArgs>();
+    CLI::App* module = defect->add_subcommand(
+        "module", "Whole-module defect: on (oscillator dead, motor limp) or off (repaired)");
+    module->add_option("ID", d->id, "Module id")->required();
+    module->add_option("STATE", d->state, "on|off")
+        ->required()
+        ->check(CLI::IsMember({"on", "off"}));
+    module->callback([&action, d] {
+      action = [d](Session& s) {
+        v1::SetModuleDefectRequest request;
+        request.set_module_id(d->id);
+        request.set_defective(d->state == "on");
+        return s.Unary(&v1::Host::Stub::SetModuleDefect, request, s.Timeout());
+      };
+    });
+  }
+  {
+    struct Args {
+      double friction = 0.0, slope = 0.0, direction = 0.0;
+      CLI::Option* friction_option = nullptr;
+      CLI::Option* slope_option = nullptr;
+      CLI::Option* direction_option = nullptr;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand("ground", "Change the ground; omitted values stay");
+    a->friction_option =
+        c->add_option("--friction", a->friction, "Coulomb friction coefficient (> 0)");
+    a->slope_option = c->add_option("--slope", a->slope, "Slope [rad] in [0, pi/2)");
+    a->direction_option = c->add_option("--direction", a->direction, "Downhill azimuth [rad]");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::SetGroundRequest request;
+        if (a->friction_option->count()) request.set_friction(a->friction);
+        if (a->slope_option->count()) request.set_slope(a->slope);
+        if (a->direction_option->count()) request.set_slope_direction(a->direction);
+        return s.Unary(&v1::Host::Stub::SetGround, request, s.Timeout());
+      };
+    });
+  }
+  {
+    auto ids = std::make_shared<std::vector<uint32_t>>();
+    CLI::App* c = app.add_subcommand("servos", "Servo angles of modules ID... (all when none)");
+    c->add_option("ID", *ids, "Module ids");
+    c->callback([&action, ids] {
+      action = [ids](Session& s) {
+        v1::GetServoAnglesRequest request;
+        for (uint32_t id : *ids) request.add_module_ids(id);
+        return s.Unary(&v1::Host::Stub::GetServoAngles, request, s.Timeout(), FormatServoAngles);
+      };
+    });
+  }
+  {
+    struct Args {
+      uint32_t id = 0, samples = 1;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c =
+        app.add_subcommand("accel", "Recent accelerometer samples of module ID (UART on)");
+    c->add_option("ID", a->id, "Module id")->required();
+    c->add_option("--samples", a->samples, "How many, 1..16 (oldest first)");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::GetAccelerometerRequest request;
+        request.set_module_id(a->id);
+        request.set_samples(a->samples);
+        return s.Unary(&v1::Host::Stub::GetAccelerometer, request, s.Timeout(),
+                       FormatAccelerometer);
+      };
+    });
+  }
+}
+
+// ---- evaluate, watch ---------------------------------------------------------------
+
+void AddEvaluate(CLI::App& app, Action& action) {
+  struct Args {
+    std::string config_file, world, morphology_file;
+    std::vector<std::string> params;
+    double warmup = 0.0, duration = 0.0, trajectory = 0.0, step = 0.0;
+    uint64_t seed = 0;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand(
+      "evaluate", "Stateless gait evaluation on the daemon's worker pool (velocity, thesis 6.2.1)");
+  c->add_option("--config", a->config_file,
+                "Robot configuration XML file (default: the world's, else the daemon's)");
+  auto* world = c->add_option("--world", a->world, "Built-in world (default: the open one)");
+  c->add_option("--morphology", a->morphology_file, "Morphology XML file (instead of --world)")
+      ->excludes(world);
+  c->add_option("--param", a->params,
+                "Parameter override name=value, e.g. amplitude.3=0.5, phase.2.5=1.57");
+  c->add_option("--warmup", a->warmup, "Warm-up before measuring [s] (0: 8)");
+  c->add_option("--duration", a->duration, "Measured duration [s] (0: 12)");
+  c->add_option("--seed", a->seed, "World and oscillator seed");
+  c->add_option("--trajectory", a->trajectory, "Sample the trajectory every S seconds (0: no)");
+  c->add_option("--step", a->step, "Physics step [s] (0: default)");
+  c->callback([&action, a] {
+    action = [a](Session& s) {
+      v1::EvaluateRequest request;
+      if (!a->config_file.empty()) request.set_config_xml(ReadFile(a->config_file));
+      request.set_world(a->world);
+      if (!a->morphology_file.empty()) request.set_morphology_xml(ReadFile(a->morphology_file));
+      for (const std::string& text : a->params) {
+        std::pair<std::string, double> parameter;
+        try {
+          parameter = ParseParameterAssignment(text);
+        } catch (const Error& e) {
+          throw UsageError{e.what()};
+        }
+        v1::ParameterValue* p = request.add_parameters();
+        p->set_name(parameter.first);
+        p->set_value(parameter.second);
+      }
+      request.set_warmup(a->warmup);
+      request.set_duration(a->duration);
+      request.set_seed(a->seed);
+      request.set_trajectory_period(a->trajectory);
+      request.set_time_step(a->step);
+      const double simulated =
+          (a->warmup == 0.0 ? 8.0 : a->warmup) + (a->duration == 0.0 ? 12.0 : a->duration);
+      return s.Unary(&v1::Host::Stub::Evaluate, request, s.Timeout(simulated), FormatEvaluation);
+    };
+  });
+}
+
+void AddWatch(CLI::App& app, Action& action, const GlobalOptions& global) {
+  struct Args {
+    double period = 0.1;
+    uint64_t count = 0;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand(
+      "watch", "Stream the robot's state (while the world advances: sleep, freerun) and events");
+  c->add_option("--period", a->period, "Seconds between updates (virtual time when stepped)");
+  c->add_option("--count", a->count, "Stop after N updates (0: until interrupted)");
+  c->callback([&action, a, &global] {
+    action = [a, &global](Session& s) {
+      v1::WatchStateRequest request;
+      request.set_period(a->period);
+      grpc::ClientContext context;
+      if (global.timeout_given || a->count > 0) {
+        Session::SetDeadline(context, s.Timeout(static_cast<double>(a->count) * a->period));
+      }
+      std::unique_ptr<grpc::ClientReader<v1::StateUpdate>> reader =
+          s.stub().WatchState(&context, request);
+      v1::StateUpdate update;
+      uint64_t received = 0;
+      while (reader->Read(&update)) {
+        s.Print(update, FormatStateUpdate);
+        s.out().flush();
+        if (a->count > 0 && ++received >= a->count) {
+          context.TryCancel();
+          break;
+        }
+      }
+      const grpc::Status status = reader->Finish();
+      if (a->count > 0 && received >= a->count) return 0;
+      const int code = s.Report(status);
+      if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+        s.err() << "yamorctl: hint: updates come only while the world advances "
+                   "(sleep, freerun)\n";
+      }
+      return code;
+    };
+  });
+}
+
+}  // namespace
+
+std::pair<std::string, double> ParseParameterAssignment(std::string_view text) {
+  const size_t equals = text.find('=');
+  if (equals == std::string_view::npos || equals == 0 || equals + 1 == text.size()) {
+    throw Error(StatusCode::kInvalidArgument,
+                "parameter \"" + std::string(text) + "\" is not name=value (e.g. amplitude.3=0.5)");
+  }
+  const std::string name(text.substr(0, equals));
+  const std::string value_text(text.substr(equals + 1));
+  char* end = nullptr;
+  const double value = std::strtod(value_text.c_str(), &end);
+  if (end != value_text.c_str() + value_text.size()) {
+    throw Error(StatusCode::kInvalidArgument,
+                "value \"" + value_text + "\" of parameter " + name + " is not a number");
+  }
+  return {name, value};
+}
+
+std::pair<bool, std::vector<uint32_t>> ParseModuleTargets(const std::vector<std::string>& words) {
+  if (words.size() == 1 && words[0] == "all") return {true, {}};
+  std::vector<uint32_t> ids;
+  for (const std::string& word : words) {
+    if (word == "all") {
+      throw Error(StatusCode::kInvalidArgument, "\"all\" cannot be combined with module ids");
+    }
+    size_t used = 0;
+    unsigned long id = 0;
+    try {
+      id = std::stoul(word, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != word.size() || word.empty() || word[0] == '-' || id > 0xffffffffUL) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "\"" + word + "\" is not a module id or \"all\"");
+    }
+    ids.push_back(static_cast<uint32_t>(id));
+  }
+  if (ids.empty()) throw Error(StatusCode::kInvalidArgument, "no modules given (ids or \"all\")");
+  return {false, ids};
+}
+
+int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  CLI::App app{"yamorctl: drive a yamord robot (gRPC API yamor.v1.Host) from the shell",
+               "yamorctl"};
+  app.fallthrough();  // global options may follow the command
+  app.require_subcommand(0, 1);
+  GlobalOptions global;
+  app.add_option("--host", global.host, "yamord address HOST:PORT")
+      ->envname("YAMORCTL_HOST")
+      ->capture_default_str();
+  app.add_flag("--json", global.json, "Print the response as one line of JSON");
+  CLI::Option* timeout = app.add_option("--timeout", global.timeout, "Deadline of the call [s]")
+                             ->check(CLI::Range(1e-3, kMaxDeadlineSeconds))
+                             ->capture_default_str();
+
+  Action action;
+  AddGetSet(app, action);
+  AddSimpleCommands(app, action);
+  AddSessionCommands(app, action);
+  AddModelCommands(app, action);
+  AddEvaluate(app, action);
+  AddWatch(app, action, global);
+  app.footer(kFooter);  // after the commands, which would inherit it
+
+  try {
+    std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 parses from the back
+    app.parse(reversed);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e, out, err);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e, out, err);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e, out, err);
+    return kUsageExitCode;
+  }
+  global.timeout_given = timeout->count() > 0;
+  if (!action) {
+    err << app.help() << "yamorctl: no command given\n";
+    return kUsageExitCode;
+  }
+  try {
+    Session session(global, out, err);
+    return action(session);
+  } catch (const UsageError& e) {
+    err << "yamorctl: " << e.message << "\n";
+    return kUsageExitCode;
+  }
+}
+
+}  // namespace yamor::yamorctl
