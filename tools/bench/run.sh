@@ -4,7 +4,10 @@
 # `X_baseline/...` is the same-run baseline of `X/...`; the table shows the
 # ratio median(X) / median(X_baseline) of their items/s (for cpg_bench:
 # oscillator-steps/s, one RK4 step of every oscillator per iteration).
+# Programs listed in `plain_programs` are not Google Benchmark binaries: each
+# runs once (it repeats internally) and its own table is printed after ours.
 set -euo pipefail
+plain_programs=" host_bench "
 if [ $# -lt 1 ]; then echo "usage: $0 BUILD_DIR [extra benchmark flags]" >&2; exit 2; fi
 build="$1"; shift
 root="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -16,10 +19,17 @@ mkdir -p "$out_dir"
 
 found=0
 jsons=()
+plain_outputs=()
 for bin in "$bench_dir"/*; do
   [ -f "$bin" ] && [ -x "$bin" ] || continue
   found=1
   name=$(basename "$bin")
+  if [[ "$plain_programs" == *" $name "* ]]; then
+    echo "bench: $name (plain program)" >&2
+    "$bin" "$@" >"$out_dir/$name.txt" 2>&1 || { cat "$out_dir/$name.txt" >&2; exit 1; }
+    plain_outputs+=("$out_dir/$name.txt")
+    continue
+  fi
   json="$out_dir/$name.json"
   echo "bench: $name (5 repetitions)" >&2
   "$bin" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
@@ -77,3 +87,8 @@ for name, items, median, cv in rows:
     ratio = f"{items / base:.1f}x" if items and base else ""
     print(f"{name:<{width}}  {rate:>16}  {cv_text:>6}  {ratio:>11}")
 PY
+
+for output in "${plain_outputs[@]}"; do
+  echo
+  cat "$output"
+done
