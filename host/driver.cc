@@ -1,5 +1,7 @@
 #include "host/driver.h"
 
+#include <thread>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -364,7 +366,7 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
     throw Error(StatusCode::kOutOfRange, "time step " + Num(time_step) + " s is outside [" +
                                              Num(kMinTimeStep) + ", " + Num(kMaxTimeStep) + "]");
   }
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   if (shutdown_) ThrowShutdown("OpenSimulation");
   cpg::RobotConfig config = spec.config ? *spec.config : config_;
   CheckConfigAgainstWorldLocked(config, spec.morphology);
@@ -398,7 +400,7 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
 
 void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string world_name) {
   YAMOR_CHECK(backend != nullptr, "AttachBackend needs a backend");
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   backend_ = std::move(backend);
   world_name_ = std::move(world_name);
   ResetRobotStateLocked();
@@ -409,7 +411,7 @@ void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string wo
 }
 
 void RobotDriver::CloseSimulation() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   if (!backend_) return;
   backend_.reset();
   world_name_.clear();
@@ -418,12 +420,12 @@ void RobotDriver::CloseSimulation() {
 }
 
 bool RobotDriver::SimulationModeEnabled() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return backend_ && backend_->IsSimulation();
 }
 
 void RobotDriver::ResetSimulation() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   Backend& backend = RequireBackendLocked("ResetSimulation");
   if (bridge::Robot* robot = backend.SimulatedRobot()) {
     for (int id : module_defects_) robot->SetModuleDefect(Wire(id), false);
@@ -435,7 +437,7 @@ void RobotDriver::ResetSimulation() {
 }
 
 physics::Morphology RobotDriver::GetMorphology() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return RequireSimulatedRobotLocked("GetMorphology").world().morphology();
 }
 
@@ -444,7 +446,7 @@ physics::Morphology RobotDriver::GetMorphology() const {
 void RobotDriver::LoadConfig(std::string_view xml, std::string_view source_name) {
   cpg::RobotConfig config =
       cpg::ParseConfigXml(xml, source_name.empty() ? "<request>" : source_name);
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   if (bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr) {
     CheckConfigAgainstWorldLocked(config, robot->world().morphology());
   } else {
@@ -461,29 +463,29 @@ void RobotDriver::LoadConfig(std::string_view xml, std::string_view source_name)
 }
 
 std::string RobotDriver::SaveConfig() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return cpg::WriteConfigXml(config_);
 }
 
 cpg::RobotConfig RobotDriver::Config() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return config_;
 }
 
 std::vector<int> RobotDriver::GetAllModulesId() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   std::vector<int> ids;
   for (const cpg::ModuleParams& m : config_.modules) ids.push_back(m.id);
   return ids;
 }
 
 double RobotDriver::GetModuleValue(int id, ModuleField field) const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return GetModuleField(config_, id, field);
 }
 
 void RobotDriver::SetModuleValue(int id, ModuleField field, double value) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   SetModuleField(config_, id, field, value);
   PendingModule& p = pending_[id];
   switch (field) {
@@ -496,24 +498,24 @@ void RobotDriver::SetModuleValue(int id, ModuleField field, double value) {
 }
 
 double RobotDriver::GetCouplingValue(int from, int to, CouplingField field) const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return GetCouplingField(config_, from, to, field);
 }
 
 void RobotDriver::SetCouplingValue(int from, int to, CouplingField field, double value) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   SetCouplingField(config_, from, to, field, value);
   pending_[from].couplings.insert(to);
 }
 
 void RobotDriver::AddCoupling(int from, int to, double phase, double weight) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   host::AddCoupling(config_, from, to, phase, weight);
   pending_[from].couplings.insert(to);
 }
 
 void RobotDriver::RemoveAllCouplings() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   config_.couplings.clear();
   for (const cpg::ModuleParams& m : config_.modules) {
     PendingModule& p = pending_[m.id];
@@ -523,7 +525,7 @@ void RobotDriver::RemoveAllCouplings() {
 }
 
 int RobotDriver::PendingChanges() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   int n = 0;
   for (const auto& [id, p] : pending_) n += p.Count();
   return n;
@@ -593,7 +595,7 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
   }
   const double timeout = link_timeout > 0.0 ? link_timeout : options_.link_timeout;
   const Clock::time_point start = Clock::now();
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   Backend& backend = RequireBackendLocked("ConnectRobot");
   const int master = config_.master_id;
   if (options_.master && *options_.master != master) {
@@ -649,7 +651,7 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
 }
 
 int RobotDriver::Flush() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   RequireBackendLocked("Flush");
   RequireConnectedLocked("Flush");
   int frames = 0;
@@ -671,14 +673,14 @@ int RobotDriver::Flush() {
 }
 
 int RobotDriver::Refresh() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   RequireBackendLocked("Refresh");
   RequireConnectedLocked("Refresh");
   return RefreshLocked();
 }
 
 void RobotDriver::SendControlMessage(const ControlMessage& message) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   RequireBackendLocked("SendControlMessage");
   std::vector<int> targets;
   if (message.all) {
@@ -713,7 +715,7 @@ double RobotDriver::SleepRealTime(double seconds, const CancelCheck& cancel) {
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
                          std::chrono::duration<double>(seconds));
   {
-    Lock lock(mutex_);  // only to wait on wake_; released while waiting
+    Lock lock(mutex_, lock_waiters_);  // only to wait on wake_; released while waiting
     while (Clock::now() < deadline) {
       if (shutdown_) ThrowShutdown("Sleep");
       if (cancel && cancel()) throw Error(StatusCode::kCancelled, "Sleep cancelled");
@@ -733,7 +735,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
   }
   double target = 0.0;
   {
-    Lock lock(mutex_);
+    Lock lock(mutex_, lock_waiters_);
     Backend& backend = RequireBackendLocked("Sleep");
     if (!backend.IsSimulation() || real_time) {
       lock.unlock();
@@ -744,7 +746,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
   }
   while (true) {
     if (shutdown_) ThrowShutdown("Sleep");
-    Lock lock(mutex_);
+    Lock lock(mutex_, lock_waiters_);
     if (cancel && cancel()) {
       throw Error(StatusCode::kCancelled, "Sleep cancelled at t = " + Num(sim_time_) + " s");
     }
@@ -756,11 +758,15 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
     const double before = sim_time_;
     StepLocked(std::min(remaining, options_.sleep_chunk));
     if (!(sim_time_ > before)) return sim_time_;  // less than a step left
+    lock.unlock();
+    // Let callers that queued up during the chunk (ElapsedTime, Set...,
+    // WatchState) take the robot before the next chunk.
+    while (lock_waiters_.load() > 0 && !shutdown_) std::this_thread::yield();
   }
 }
 
 double RobotDriver::ElapsedTime() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   Backend& backend = RequireBackendLocked("ElapsedTime");
   if (!backend.IsSimulation()) return SecondsSince(attached_at_);
   const snp::Message m = BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime);
@@ -769,7 +775,7 @@ double RobotDriver::ElapsedTime() {
 }
 
 RobotPose RobotDriver::RobotPosition() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   Backend& backend = RequireBackendLocked("RobotPosition");
   if (!backend.IsSimulation()) {
     throw Error(StatusCode::kUnimplemented,
@@ -784,7 +790,7 @@ RobotPose RobotDriver::RobotPosition() {
 }
 
 std::vector<std::pair<int, double>> RobotDriver::GetServoAngles(const std::vector<int>& ids) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   RequireBackendLocked("GetServoAngles");
   std::vector<int> targets = ids;
   if (targets.empty()) {
@@ -811,7 +817,7 @@ std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int sampl
     throw Error(StatusCode::kOutOfRange,
                 "accelerometer samples " + Id(samples) + " is outside [1, 16]");
   }
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   Backend& backend = RequireBackendLocked("GetAccelerometer");
   if (config_.FindModule(id) == nullptr) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
@@ -841,7 +847,7 @@ std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int sampl
 }
 
 void RobotDriver::SetMotorDefect(int id, MotorDefect defect) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   if (shutdown_) ThrowShutdown("SetMotorDefect");
   if (config_.FindModule(id) == nullptr) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
@@ -863,7 +869,7 @@ void RobotDriver::SetMotorDefect(int id, MotorDefect defect) {
 }
 
 void RobotDriver::SetModuleDefect(int id, bool defective) {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   bridge::Robot& robot = RequireSimulatedRobotLocked("SetModuleDefect");
   const int sim = Wire(id);
   if (!robot.world().morphology().Contains(sim)) {
@@ -899,7 +905,7 @@ void RobotDriver::SetGround(const GroundChange& change) {
     throw Error(StatusCode::kInvalidArgument,
                 "ground change without friction, slope or slope direction");
   }
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   bridge::Robot& robot = RequireSimulatedRobotLocked("SetGround");
   if (change.friction) robot.world().SetGroundFriction(*change.friction);
   if (change.slope || change.slope_direction) {
@@ -932,7 +938,7 @@ void RobotDriver::ConnectModules(int from, snp::Connector from_connector, int to
   if (from == to) {
     throw Error(StatusCode::kInvalidArgument, "module " + Id(from) + " cannot connect to itself");
   }
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   RequireBackendLocked("ConnectModules");
   BridgeRequestLocked(snp::ConnectModules{.from = static_cast<uint8_t>(from),
                                           .from_connector = from_connector,
@@ -948,7 +954,7 @@ void RobotDriver::DisconnectModule(int id) {
   if (id < 0 || id > cpg::kMaxModuleId) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " does not exist (ids are 0..254)");
   }
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   RequireBackendLocked("DisconnectModule");
   BridgeRequestLocked(snp::DisconnectModule{.module = static_cast<uint8_t>(id)},
                       snp::MessageType::kSpecialAck);
@@ -993,7 +999,7 @@ void RobotDriver::SetFreeRun(double real_time_factor) {
     throw Error(StatusCode::kOutOfRange,
                 "real-time factor " + Num(real_time_factor) + " is outside [0, 100]");
   }
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   if (shutdown_) ThrowShutdown("SetFreeRun");
   if (real_time_factor > 0.0) {
     Backend& backend = RequireBackendLocked("SetFreeRun");
@@ -1007,7 +1013,7 @@ void RobotDriver::SetFreeRun(double real_time_factor) {
 }
 
 void RobotDriver::FreeRunLoop() {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   Clock::time_point last = Clock::now();
   double debt = 0.0;  // simulated seconds owed to the wall clock
   while (!shutdown_) {
@@ -1040,7 +1046,7 @@ void RobotDriver::FreeRunLoop() {
 WatchCursor RobotDriver::BeginWatch() {
   ++watchers_;
   {
-    Lock lock(mutex_);
+    Lock lock(mutex_, lock_waiters_);
     if (backend_ && backend_->IsSimulation() && !diverged_) RecordSampleLocked();
   }
   WatchCursor cursor;
@@ -1091,7 +1097,7 @@ std::optional<StateUpdate> RobotDriver::WaitForState(WatchCursor& cursor, double
 // ---- Daemon ----------------------------------------------------------------------
 
 DriverInfo RobotDriver::Info() const {
-  Lock lock(mutex_);
+  Lock lock(mutex_, lock_waiters_);
   return DriverInfo{.backend = backend_ ? backend_->Name() : "none",
                     .world = world_name_,
                     .master_node = config_.master_id,
@@ -1101,7 +1107,7 @@ DriverInfo RobotDriver::Info() const {
 
 void RobotDriver::Shutdown() {
   {
-    Lock lock(mutex_);
+    Lock lock(mutex_, lock_waiters_);
     shutdown_ = true;
     free_run_factor_ = 0.0;
   }

@@ -304,7 +304,19 @@ class RobotDriver {
     int Count() const;
   };
 
-  using Lock = std::unique_lock<std::mutex>;
+  // A lock on mutex_ that counts itself as waiting until it holds it, so a
+  // long virtual-time Sleep can hand the robot over between chunks:
+  // std::mutex is not fair, and the stepping thread would otherwise re-take
+  // it before any other caller got a turn.
+  class Lock : public std::unique_lock<std::mutex> {
+   public:
+    Lock(std::mutex& mutex, std::atomic<int>& waiters)
+        : std::unique_lock<std::mutex>(mutex, std::defer_lock) {
+      waiters.fetch_add(1);
+      lock();
+      waiters.fetch_sub(1);
+    }
+  };
 
   // All *Locked methods require mutex_ held.
   Backend& RequireBackendLocked(std::string_view what) const;
@@ -339,6 +351,7 @@ class RobotDriver {
   std::atomic<bool> shutdown_{false};
 
   mutable std::mutex mutex_;
+  mutable std::atomic<int> lock_waiters_{0};  // callers blocked on mutex_ (see Lock)
   cpg::RobotConfig config_;                      // guarded by mutex_
   std::map<int, PendingModule> pending_;         // guarded by mutex_
   std::unique_ptr<Backend> backend_;             // guarded by mutex_
