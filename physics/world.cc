@@ -2,17 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <map>
 #include <mutex>
-#include <numeric>
 
 #include <ode/ode.h>
 
 #include "common/log.h"
 #include "common/status.h"
 #include "physics/box_overlap.h"
+#include "physics/disjoint_sets.h"
+#include "physics/ode_contact.h"
 #include "physics/ode_runtime.h"
 #include "physics/placement.h"
 
@@ -20,11 +20,6 @@ namespace yamor::physics {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kMaxContactsPerPair = 4;
-// Global joint softness: a little CFM keeps kinematic loops (the wheel), whose
-// hinge constraints are partly redundant, well conditioned.
-constexpr double kJointErp = 0.2;
-constexpr double kJointCfm = 1e-6;
 constexpr double kMaxPosition = 1e4;  // m: anything farther away has blown up
 // A module being connected must clear every other box shrunk by this much per
 // face (the mated faces themselves are 100 µm apart).
@@ -47,20 +42,6 @@ void ToOde(const Eigen::Matrix3d& m, dMatrix3 r) {
 
 Eigen::Vector3d ToEigen3(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
 
-// Union-find over part indices.
-struct DisjointSets {
-  explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  size_t Find(size_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void Union(size_t a, size_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // smallest index is the root
-  }
-  std::vector<size_t> parent;
-};
 
 void CheckFinite(double value, const char* what) {
   if (!std::isfinite(value)) {
@@ -494,20 +475,10 @@ struct World::Impl {
     const auto tag_b = reinterpret_cast<uintptr_t>(dGeomGetData(b));
     // A module's handle turns about its own body: never collide the two.
     if (tag_a != 0 && tag_b != 0 && (tag_a - 1) / 2 == (tag_b - 1) / 2) return;
-    dContactGeom found[kMaxContactsPerPair];
-    const int count = dCollide(a, b, kMaxContactsPerPair, found, sizeof(dContactGeom));
     const bool with_ground = tag_a == 0 || tag_b == 0;
-    for (int i = 0; i < count; ++i) {
-      dContact contact;
-      std::memset(&contact, 0, sizeof(contact));
-      contact.geom = found[i];
-      contact.surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
-      contact.surface.mu = with_ground ? self->ground_friction : self->options.module_friction;
-      contact.surface.soft_erp = self->contact_erp;
-      contact.surface.soft_cfm = self->contact_cfm;
-      dJointID joint = dJointCreateContact(self->world, self->contacts, &contact);
-      dJointAttach(joint, dGeomGetBody(a), dGeomGetBody(b));
-    }
+    AddContactJoints(self->world, self->contacts, a, b,
+                     with_ground ? self->ground_friction : self->options.module_friction,
+                     self->contact_erp, self->contact_cfm);
   }
 
   void MarkDiverged(int module_id, const std::string& reason) {

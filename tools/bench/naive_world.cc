@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <map>
 #include <vector>
 
@@ -11,18 +10,18 @@
 
 #include "common/status.h"
 #include "physics/module.h"
+#include "physics/ode_contact.h"
 #include "physics/ode_runtime.h"
 
 namespace yamor::bench {
 namespace {
 
 using physics::ModuleBox;
+using physics::kJointCfm;
+using physics::kJointErp;
 using physics::Part;
 
-// Copied from physics/world.cc so both worlds solve the same problem.
-constexpr int kMaxContactsPerPair = 4;
-constexpr double kJointErp = 0.2;
-constexpr double kJointCfm = 1e-6;
+// Same frame conversion as physics/world.cc.
 
 void ToOde(const Eigen::Matrix3d& m, dMatrix3 r) {
   for (int i = 0; i < 3; ++i) {
@@ -179,21 +178,11 @@ struct NaiveWorld::Impl {
         dAreConnectedExcluding(body_a, body_b, dJointTypeContact)) {
       return;
     }
-    dContactGeom found[kMaxContactsPerPair];
-    const int count = dCollide(a, b, kMaxContactsPerPair, found, sizeof(dContactGeom));
     const bool with_ground = tag_a == 0 || tag_b == 0;
-    for (int i = 0; i < count; ++i) {
-      dContact contact;
-      std::memset(&contact, 0, sizeof(contact));
-      contact.geom = found[i];
-      contact.surface.mode = dContactApprox1 | dContactSoftERP | dContactSoftCFM;
-      contact.surface.mu =
-          with_ground ? self->options.ground_friction : self->options.module_friction;
-      contact.surface.soft_erp = self->contact_erp;
-      contact.surface.soft_cfm = self->contact_cfm;
-      dJointID joint = dJointCreateContact(self->world, self->contacts, &contact);
-      dJointAttach(joint, body_a, body_b);
-    }
+    physics::AddContactJoints(self->world, self->contacts, a, b,
+                              with_ground ? self->options.ground_friction
+                                          : self->options.module_friction,
+                              self->contact_erp, self->contact_cfm);
   }
 
   void Step() {

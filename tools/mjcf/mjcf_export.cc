@@ -6,10 +6,10 @@
 #include <deque>
 #include <filesystem>
 #include <map>
-#include <numeric>
 #include <string_view>
 
 #include "common/status.h"
+#include "physics/disjoint_sets.h"
 #include "physics/module.h"
 
 namespace yamor::mjcf {
@@ -17,6 +17,7 @@ namespace {
 
 using Eigen::Isometry3d;
 using Eigen::Vector3d;
+using physics::DisjointSets;
 using physics::Part;
 
 // A part of a module: index into the connected module list and which part.
@@ -34,19 +35,6 @@ struct Group {
   std::vector<int> children;
 };
 
-struct DisjointSets {
-  explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  size_t Find(size_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void Union(size_t a, size_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-  std::vector<size_t> parent;
-};
 
 std::string Num(double value) {
   // Round-off below a femtometre / 1e-15 rad is noise: print it as 0 (no "-0").
