@@ -15,6 +15,11 @@
 #include "physics/world.h"
 
 namespace yamor::host {
+
+using cpg::GetCouplingField;
+using cpg::GetModuleField;
+using cpg::SetCouplingField;
+using cpg::SetModuleField;
 namespace {
 
 using snp::Address;
@@ -510,7 +515,7 @@ void RobotDriver::SetCouplingValue(int from, int to, CouplingField field, double
 
 void RobotDriver::AddCoupling(int from, int to, double phase, double weight) {
   Lock lock(mutex_, lock_waiters_);
-  host::AddCoupling(config_, from, to, phase, weight);
+  cpg::AddCoupling(config_, from, to, phase, weight);
   pending_[from].couplings.insert(to);
 }
 

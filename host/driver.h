@@ -25,11 +25,15 @@
 #include "cpg/robot_config.h"
 #include "host/backend.h"
 #include "host/id_map.h"
-#include "host/parameters.h"
+#include "cpg/parameters.h"
 #include "physics/morphology.h"
 #include "proto/snp/messages.h"
 
 namespace yamor::host {
+
+// The driver's setters speak the configuration model's field names.
+using cpg::CouplingField;
+using cpg::ModuleField;
 
 /// Returns true once the caller gave up (client cancelled, deadline passed).
 /// Long operations poll it between chunks and then throw CANCELLED.

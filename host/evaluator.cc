@@ -8,11 +8,13 @@
 #include "bridge/robot.h"
 #include "common/log.h"
 #include "common/status.h"
-#include "host/parameters.h"
+#include "cpg/parameters.h"
 #include "host/sim_backend.h"
 #include "physics/world.h"
 
 namespace yamor::host {
+
+using cpg::ApplyParameters;
 namespace {
 
 using snp::Address;

@@ -1,4 +1,4 @@
-#include "host/parameters.h"
+#include "cpg/parameters.h"
 
 #include <charconv>
 #include <map>
@@ -6,7 +6,7 @@
 
 #include "common/status.h"
 
-namespace yamor::host {
+namespace yamor::cpg {
 namespace {
 
 std::string Num(double v) {
@@ -240,4 +240,4 @@ void ApplyParameters(cpg::RobotConfig& config,
   }
 }
 
-}  // namespace yamor::host
+}  // namespace yamor::cpg

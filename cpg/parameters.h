@@ -14,7 +14,7 @@
 
 #include "cpg/robot_config.h"
 
-namespace yamor::host {
+namespace yamor::cpg {
 
 /// Largest oscillator amplitude and |offset| [rad].
 inline constexpr double kMaxAmplitude = 2.0 * M_PI;
@@ -63,4 +63,4 @@ void AddCoupling(cpg::RobotConfig& config, int from, int to, double phase, doubl
 void ApplyParameters(cpg::RobotConfig& config,
                      const std::vector<std::pair<std::string, double>>& parameters);
 
-}  // namespace yamor::host
+}  // namespace yamor::cpg
