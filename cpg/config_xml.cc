@@ -19,6 +19,7 @@
 #include <sstream>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include "common/status.h"
@@ -46,7 +47,10 @@ std::string_view Trim(std::string_view text) {
 // Thread-safety: single use by one thread (one Reader per parse).
 class Reader {
  public:
-  explicit Reader(std::string_view source_name) : file_(source_name) {}
+  explicit Reader(std::string_view source_name,
+                  std::vector<std::string> skipped_root_elements = {})
+      : file_(source_name),
+        skipped_root_elements_(std::move(skipped_root_elements)) {}
 
   RobotConfig Read(std::string_view xml) {
     tinyxml2::XMLDocument document;
@@ -184,6 +188,11 @@ class Reader {
       const XMLElement* element = node->ToElement();
       if (element == nullptr) {
         CheckIgnorable(node, "<yamorconfig>");
+        continue;
+      }
+      if (std::find(skipped_root_elements_.begin(),
+                    skipped_root_elements_.end(),
+                    element->Name()) != skipped_root_elements_.end()) {
         continue;
       }
       if (std::string_view(element->Name()) != "modulelist") {
@@ -363,6 +372,7 @@ class Reader {
   }
 
   std::string file_;
+  std::vector<std::string> skipped_root_elements_;
   RobotConfig config_;
 };
 
@@ -376,6 +386,12 @@ std::string Num(double value) {
 
 RobotConfig ParseConfigXml(std::string_view xml, std::string_view source_name) {
   return Reader(source_name).Read(xml);
+}
+
+RobotConfig ParseConfigXmlSkipping(
+    std::string_view xml, std::string_view source_name,
+    const std::vector<std::string>& extra_root_elements) {
+  return Reader(source_name, extra_root_elements).Read(xml);
 }
 
 RobotConfig LoadConfigFile(const std::string& path) {

@@ -3,6 +3,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "cpg/robot_config.h"
 
@@ -16,6 +17,14 @@ namespace yamor::cpg {
 /// canonical order). Fills the source locations. Thread-safe.
 RobotConfig ParseConfigXml(std::string_view xml,
                            std::string_view source_name = "<string>");
+
+/// As ParseConfigXml, but direct children of <yamorconfig> whose element name
+/// is in `extra_root_elements` are skipped instead of rejected, so a format
+/// built on the robot schema (the optimizer's <optimize>/<constrain> rules)
+/// can read them itself with the robot's line numbers intact. Thread-safe.
+RobotConfig ParseConfigXmlSkipping(
+    std::string_view xml, std::string_view source_name,
+    const std::vector<std::string>& extra_root_elements);
 
 /// Reads and validates the configuration file at `path`. Throws
 /// yamor::Error(NOT_FOUND) when the file cannot be read, INVALID_ARGUMENT
