@@ -1,0 +1,123 @@
+// The host pool (thesis 5.7.2, the simulation organizer): an Evaluator that
+// runs candidates as stateless Evaluate RPCs on a pool of yamord daemons.
+// Work waits in one FIFO queue; each host takes at most its worker capacity
+// at once. A host that fails (it died, timed out, is overloaded) is marked
+// down, its evaluations go back to the front of the queue for the others,
+// and it is health-checked again with exponential backoff until it answers.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "optimizer-plugins/framework/evaluator.h"
+
+namespace yamor::optimizer {
+
+/// A yamord address.
+struct HostAddress {
+  std::string host;  ///< Name or IP address (an IPv6 literal without brackets).
+  int port = 0;      ///< TCP port, 1..65535.
+
+  /// "host:port" ("[::1]:2224" for IPv6 literals): the gRPC target and the
+  /// name in Evaluation::host, logs and errors.
+  std::string ToString() const;
+};
+
+/// Parses a --hosts value: "H:P,H:P,..." or "@FILE" (one host:port per
+/// line; '#' starts a comment; blank lines are skipped). IPv6 literals are
+/// written "[::1]:2224". Throws yamor::Error kInvalidArgument naming the bad
+/// entry (and FILE:LINE for files), for an empty list and for duplicates;
+/// kNotFound when FILE cannot be read.
+std::vector<HostAddress> ParseHosts(const std::string& spec);
+
+/// The fixed part of every EvaluateRequest; Candidate::parameters become the
+/// request's parameters.
+struct EvaluationSettings {
+  std::string config_xml;      ///< Robot configuration XML; empty: the world's built-in one.
+  std::string world;           ///< Built-in world name; empty: the daemon's world.
+  std::string morphology_xml;  ///< Overrides `world` when set.
+  double warmup = 8;           ///< [s] before the measured span; 0 = daemon default (8).
+  double duration = 12;        ///< [s] measured span; 0 = daemon default (12).
+  uint64_t seed = 0;           ///< World and oscillator seed.
+  double time_step = 0;        ///< Physics step [s]; 0 = daemon default.
+  /// Deadline of one Evaluate RPC [s]; 0: 10 * (warmup + duration) + 60.
+  double deadline_seconds = 0;
+};
+
+/// How the pool treats failing hosts.
+struct PoolOptions {
+  double health_timeout = 5;  ///< Deadline of one health check (Health/Check + GetInfo) [s].
+  double retry_initial = 0.5; ///< First delay before re-checking a failed host [s].
+  double retry_max = 30;      ///< Cap of the doubling re-check delay [s].
+  /// No healthy host for this long while a batch waits: EvaluateBatch throws
+  /// kUnavailable [s].
+  double give_up_after = 120;
+  /// Host failures one evaluation may meet before EvaluateBatch throws
+  /// kUnavailable naming the candidate.
+  int max_attempts = 5;
+};
+
+/// What the pool knows about one host (a snapshot).
+struct HostStatus {
+  HostAddress address;     ///< The host.
+  bool up = false;         ///< Passed its last health check and has not failed since.
+  int capacity = 0;        ///< Evaluations it runs at once (its GetInfo worker_capacity).
+  int in_flight = 0;       ///< Evaluate RPCs not yet returned (cancelled ones included).
+  long long completed = 0; ///< Evaluations it scored for a batch.
+  /// Times it was marked down after an Evaluate failure, plus failed health checks.
+  long long failures = 0;
+  std::string last_error;  ///< Text of the last failure ("" if none).
+};
+
+/// Runs evaluations on yamord hosts over gRPC.
+///
+/// A host is used once it passes a health check: grpc.health.v1.Health/Check
+/// must answer SERVING (a server without the health service, UNIMPLEMENTED,
+/// is accepted) and GetInfo must succeed; its worker_capacity bounds the
+/// evaluations sent to it at once. Evaluate replies UNAVAILABLE,
+/// DEADLINE_EXCEEDED, INTERNAL, RESOURCE_EXHAUSTED (or any other code except
+/// the caller errors below, including a CANCELLED the pool did not ask for)
+/// count as a host failure: the host is marked down, every evaluation it
+/// was running is re-queued at the front (each costs an attempt), its
+/// late replies are ignored and its RPCs cancelled, and it is re-checked
+/// after retry_initial * 2^k (capped at retry_max; k resets after its next
+/// successful evaluation). INVALID_ARGUMENT, OUT_OF_RANGE, NOT_FOUND and
+/// FAILED_PRECONDITION are caller errors: EvaluateBatch throws that code with
+/// the host's message, naming the candidate, without retrying. Every slot of
+/// a batch is filled exactly once.
+///
+/// Thread safety: every public method may be called from any thread at any
+/// time; concurrent EvaluateBatch calls share the hosts in FIFO order. The
+/// destructor must not run concurrently with other calls; it cancels and
+/// waits for every RPC still running.
+class HostPool final : public Evaluator {
+ public:
+  /// Connects to `hosts` and health-checks each once (waiting at most about
+  /// options.health_timeout) before returning; hosts that fail are retried in
+  /// the background. Throws kInvalidArgument for an empty or duplicated host
+  /// list or invalid options.
+  HostPool(std::vector<HostAddress> hosts, EvaluationSettings settings, PoolOptions options = {});
+  /// Cancels every RPC and waits for them to return.
+  ~HostPool() override;
+  HostPool(const HostPool&) = delete;
+  HostPool& operator=(const HostPool&) = delete;
+
+  /// Queues the batch behind earlier ones and waits for every slot; see
+  /// Evaluator::EvaluateBatch for the errors.
+  std::vector<Evaluation> EvaluateBatch(const std::vector<Candidate>& batch) override;
+  /// Ends every running and future batch with kCancelled and cancels their RPCs.
+  void RequestStop() override;
+  /// Sum of the capacities of the hosts that are up (at least 1).
+  int Capacity() const override;
+
+  /// One snapshot per host, in construction order.
+  std::vector<HostStatus> Status() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace yamor::optimizer

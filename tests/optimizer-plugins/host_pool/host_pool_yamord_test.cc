@@ -1,0 +1,213 @@
+// The host pool over real yamord daemons (path compiled in) on ephemeral
+// ports: results equal direct Evaluate calls, a daemon killed mid-batch,
+// a caller error from the daemon.
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <future>
+#include <set>
+
+#include "common/status.h"
+#include "tests/optimizer-plugins/host_pool/host_pool_test_util.h"
+
+namespace yamor::optimizer {
+namespace {
+
+using namespace testing;  // NOLINT: the test helpers
+using std::chrono::seconds;
+
+const char* const kYamord = YAMORD_PATH;
+
+// A yamord child process on 127.0.0.1:0; stdout is a pipe (the "listening
+// on" line), stderr goes to the test's stderr. Killed at the end.
+class Daemon {
+ public:
+  explicit Daemon(int workers) {
+    std::vector<std::string> args = {kYamord,      "--listen", "127.0.0.1:0", "--log-level",
+                                     "warn",       "--workers", std::to_string(workers)};
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(fds[1], STDOUT_FILENO);
+      close(fds[0]);
+      close(fds[1]);
+      execv(kYamord, argv.data());
+      _exit(127);
+    }
+    close(fds[1]);
+    out_ = fds[0];
+    port_ = WaitForPort();
+  }
+  ~Daemon() {
+    Kill();
+    if (out_ >= 0) close(out_);
+  }
+
+  void Kill() {
+    if (pid_ <= 0) return;
+    kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+    pid_ = -1;
+  }
+  int port() const { return port_; }
+  HostAddress address() const { return HostAddress{"127.0.0.1", port_}; }
+
+ private:
+  // Waits for "yamord: listening on 127.0.0.1:PORT"; 0 on failure.
+  int WaitForPort() {
+    std::string line;
+    const auto deadline = Clock::now() + seconds(30);
+    while (Clock::now() < deadline) {
+      pollfd p{out_, POLLIN, 0};
+      if (poll(&p, 1, 100) <= 0) continue;
+      char c = 0;
+      if (read(out_, &c, 1) != 1) return 0;
+      if (c != '\n') {
+        line.push_back(c);
+        continue;
+      }
+      const std::string prefix = "yamord: listening on 127.0.0.1:";
+      if (line.rfind(prefix, 0) == 0) return std::stoi(line.substr(prefix.size()));
+      line.clear();
+    }
+    return 0;
+  }
+
+  pid_t pid_ = -1;
+  int out_ = -1;
+  int port_ = 0;
+};
+
+EvaluationSettings Quadruped() {
+  EvaluationSettings settings;
+  settings.world = "quadruped";
+  settings.warmup = 1;
+  settings.duration = 1;
+  settings.seed = 11;
+  return settings;
+}
+
+PoolOptions FastRetry() {
+  PoolOptions options;
+  options.health_timeout = 5;
+  options.retry_initial = 0.05;
+  options.retry_max = 0.5;
+  options.give_up_after = 30;
+  return options;
+}
+
+std::vector<Candidate> Gaits(int count) {
+  std::vector<Candidate> out;
+  for (int i = 0; i < count; ++i) {
+    out.push_back(Candidate{{{"phase.0.1", 0.4 * i}, {"amplitude.5", 0.3 + 0.05 * i}}});
+  }
+  return out;
+}
+
+// A direct Evaluate of `candidate` with `settings` on `address`.
+yamor::v1::EvaluateResponse DirectEvaluate(const HostAddress& address,
+                                          const EvaluationSettings& settings,
+                                          const Candidate& candidate) {
+  auto stub = yamor::v1::Host::NewStub(
+      grpc::CreateChannel(address.ToString(), grpc::InsecureChannelCredentials()));
+  yamor::v1::EvaluateRequest request;
+  request.set_world(settings.world);
+  request.set_warmup(settings.warmup);
+  request.set_duration(settings.duration);
+  request.set_seed(settings.seed);
+  for (const auto& [name, value] : candidate.parameters) {
+    auto* p = request.add_parameters();
+    p->set_name(name);
+    p->set_value(value);
+  }
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + seconds(60));
+  yamor::v1::EvaluateResponse response;
+  const grpc::Status status = stub->Evaluate(&context, request, &response);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return response;
+}
+
+TEST(HostPoolYamordTest, TwoDaemonsGiveTheDirectResultsInOrder) {
+  Daemon a(1), b(1);
+  ASSERT_GT(a.port(), 0);
+  ASSERT_GT(b.port(), 0);
+  HostPool pool({a.address(), b.address()}, Quadruped(), FastRetry());
+  EXPECT_EQ(pool.Capacity(), 2);
+  const std::vector<Candidate> batch = Gaits(6);
+  const std::vector<Evaluation> results = EvaluateGuarded(pool, batch);
+  ASSERT_EQ(results.size(), batch.size());
+  std::set<std::string> hosts;
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    const yamor::v1::EvaluateResponse direct = DirectEvaluate(a.address(), Quadruped(), batch[i]);
+    EXPECT_EQ(results[i].velocity, direct.velocity()) << "slot " << i << " bit-identical";
+    EXPECT_EQ(results[i].distance, direct.distance()) << "slot " << i;
+    EXPECT_EQ(results[i].diverged, direct.diverged());
+    EXPECT_GT(results[i].wall_seconds, 0.0);
+    hosts.insert(results[i].host);
+  }
+  EXPECT_EQ(hosts, (std::set<std::string>{a.address().ToString(), b.address().ToString()}));
+  std::set<double> velocities;
+  for (const Evaluation& e : results) velocities.insert(e.velocity);
+  EXPECT_GT(velocities.size(), 1u) << "the candidates differ";
+}
+
+TEST(HostPoolYamordTest, DaemonKilledMidBatch) {
+  Daemon a(1), b(1);
+  ASSERT_GT(a.port(), 0);
+  ASSERT_GT(b.port(), 0);
+  HostPool pool({a.address(), b.address()}, Quadruped(), FastRetry());
+  // Each gait twice: equal results prove no slot got another's reply.
+  std::vector<Candidate> batch;
+  for (const Candidate& c : Gaits(4)) {
+    batch.push_back(c);
+    batch.push_back(c);
+  }
+  auto result =
+      std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch, seconds(90)); });
+  ASSERT_TRUE(WaitFor([&] {
+    const HostStatus s = StatusOf(pool, 1);
+    return s.completed >= 1 && s.in_flight > 0;
+  }, seconds(60)));
+  b.Kill();
+  const std::vector<Evaluation> results = result.get();
+  ASSERT_EQ(results.size(), batch.size());
+  for (std::size_t i = 0; i < batch.size(); i += 2) {
+    EXPECT_EQ(results[i].velocity, results[i + 1].velocity) << "slots " << i << ", " << i + 1;
+    EXPECT_FALSE(results[i].diverged);
+  }
+  const HostStatus s = StatusOf(pool, 1);
+  EXPECT_FALSE(s.up);
+  EXPECT_GE(s.failures, 1);
+  EXPECT_EQ(StatusOf(pool, 0).completed + s.completed, static_cast<long long>(batch.size()));
+  EXPECT_EQ(pool.Capacity(), 1);
+}
+
+TEST(HostPoolYamordTest, UnknownParameterIsACallerError) {
+  Daemon a(1);
+  ASSERT_GT(a.port(), 0);
+  HostPool pool({a.address()}, Quadruped(), FastRetry());
+  try {
+    pool.EvaluateBatch({Candidate{{{"phase.0.1", 1.0}, {"foo.3", 2.0}}}});
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kInvalidArgument) << e.what();
+    EXPECT_NE(std::string(e.what()).find("foo.3"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(a.address().ToString()), std::string::npos) << e.what();
+  }
+  const HostStatus s = StatusOf(pool, 0);
+  EXPECT_TRUE(s.up);
+  EXPECT_EQ(s.failures, 0) << "a caller error is no host failure";
+}
+
+}  // namespace
+}  // namespace yamor::optimizer
