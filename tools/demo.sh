@@ -1,27 +1,55 @@
 #!/usr/bin/env bash
-# The `make demo` entry point: integrates the quadruped's CPG (thesis 6.1.1)
-# for 20 s from seeded random initial phases (all-zero phases would sit on the
-# unstable in-phase equilibrium of the hip ring) and plots every set-point.
+# The `make demo` entry point: learns a walking gait for the quadruped's seven
+# parameters (thesis Table 6.1) with the powell plugin, spread over two local
+# yamord daemons, and writes the results folder.
 #   tools/demo.sh BUILD_DIR      (e.g. build/release)
+# Environment: DEMO_EVALUATIONS (budget, default 600), DEMO_OUT (results folder).
 set -euo pipefail
 if [ $# -ne 1 ]; then echo "usage: $0 BUILD_DIR" >&2; exit 2; fi
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$(cd "$1" && pwd)"
 cd "$root"
 
-runner="$build/cpg/yamor-cpg-run"
-[ -x "$runner" ] || { echo "demo: $runner not built (run make build)" >&2; exit 1; }
-python=".venv/bin/python"
-[ -x "$python" ] || { echo "demo: $python missing (run make deps)" >&2; exit 1; }
+yamord="$build/host/yamord"
+optimize="$build/optimizer-plugins/yamor-optimize"
+for binary in "$yamord" "$optimize"; do
+  [ -x "$binary" ] || { echo "demo: $binary not built (run make build)" >&2; exit 1; }
+done
+export YAMOR_PYTHON="$root/.venv/bin/python"
+[ -x "$YAMOR_PYTHON" ] || { echo "demo: $YAMOR_PYTHON missing (run make deps)" >&2; exit 1; }
 
-config="configs/robots/quadruped.xml"
-out="results/demo"
+out="${DEMO_OUT:-results/demo}"
+evaluations="${DEMO_EVALUATIONS:-600}"
+rm -rf "$out"
 mkdir -p "$out"
 
-"$runner" --config "$config" --duration 20 --dt 0.001 --sample-dt 0.01 \
-  --seed 1 --out "$out/setpoints.csv"
-"$python" tools/plot/plot_setpoints.py "$out/setpoints.csv" "$out/setpoints.png" \
-  --title "Quadruped CPG set-points (thesis 6.1.1, $config)"
+# Two daemons, one Evaluate worker each, on ports the kernel picks.
+pids=()
+hosts=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+  for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done
+}
+trap cleanup EXIT
+for i in 1 2; do
+  fifo="$out/.yamord$i.out"
+  mkfifo "$fifo"
+  "$yamord" --listen 127.0.0.1:0 --workers 1 --log-level warn >"$fifo" 2>"$out/yamord$i.log" &
+  pids+=("$!")
+  exec {fd}<"$fifo"
+  line=""
+  if ! read -r -t 60 -u "$fd" line || [[ "$line" != "yamord: listening on "* ]]; then
+    echo "demo: yamord $i did not start (see $out/yamord$i.log)" >&2
+    exit 1
+  fi
+  hosts+=("${line#yamord: listening on }")
+  rm -f "$fifo"
+  echo "demo: yamord $i listening on ${hosts[-1]}"
+done
+host_list="$(IFS=,; echo "${hosts[*]}")"
 
-echo "demo: set-points CSV: $root/$out/setpoints.csv"
-echo "demo: plot:           $root/$out/setpoints.png"
+echo "demo: learning a quadruped gait with powell (interval line search, thesis 6.2.5)"
+echo "demo: $evaluations evaluations of 8 s warm-up + 12 s walk, over $host_list"
+"$optimize" --plugin powell --config configs/optimize/quadruped-7.xml --world quadruped \
+  --hosts "$host_list" --set "max_evaluations=$evaluations" --set line_search=interval \
+  --seed 1 --out "$out/powell"

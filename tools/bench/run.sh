@@ -7,7 +7,7 @@
 # Programs listed in `plain_programs` are not Google Benchmark binaries: each
 # runs once (it repeats internally) and its own table is printed after ours.
 set -euo pipefail
-plain_programs=" host_bench "
+plain_programs=" host_bench pool_bench "
 if [ $# -lt 1 ]; then echo "usage: $0 BUILD_DIR [extra benchmark flags]" >&2; exit 2; fi
 build="$1"; shift
 root="$(cd "$(dirname "$0")/../.." && pwd)"

@@ -1,0 +1,37 @@
+// What yamor-optimize sets up before sessions run: the problem of an
+// optimization configuration, and the instances of a batch start.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "optimizer-plugins/framework/optimization_config.h"
+#include "optimizer-plugins/framework/session.h"
+
+namespace yamor::optimizer {
+
+/// The problem of `config`: its optimize rules as parameters (start values
+/// clamped into the bounds), candidates with the constraints applied, and
+/// best.xml as the robot configuration with a point applied. The problem
+/// refers to `config`, which must outlive it.
+Problem MakeProblem(const OptimizationConfig& config);
+
+/// One instance of a batch start (the thesis's BatchStart, D.2.2).
+struct BatchInstance {
+  std::string name;                        ///< Results subfolder and log label.
+  std::uint64_t seed = 0;                  ///< The instance's seed.
+  std::map<std::string, std::string> set;  ///< Field values over the command line's.
+};
+
+/// Reads a batch file (TOML):
+///   [[instance]]
+///   name = "classic"        # [A-Za-z0-9_.-]+, unique
+///   seed = 1                # optional; default: --seed + instance number
+///   [instance.set]          # optional field values (strings, numbers, booleans)
+///   max_evaluations = 300
+/// Throws kInvalidArgument naming the file, line and key.
+std::vector<BatchInstance> LoadBatchFile(const std::string& path, std::uint64_t default_seed);
+
+}  // namespace yamor::optimizer

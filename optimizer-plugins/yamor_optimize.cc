@@ -1,0 +1,338 @@
+// yamor-optimize: runs an optimizer plugin against a pool of yamord hosts
+// (thesis 5.7, appendix D). See `yamor-optimize --help` and docs/optimizers.md.
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "common/log.h"
+#include "common/status.h"
+#include "optimizer-plugins/framework/host_pool.h"
+#include "optimizer-plugins/framework/optimization_config.h"
+#include "optimizer-plugins/framework/plugin_loader.h"
+#include "optimizer-plugins/framework/run_setup.h"
+#include "optimizer-plugins/framework/session.h"
+
+namespace fs = std::filesystem;
+using namespace yamor;
+using namespace yamor::optimizer;
+
+namespace {
+
+std::atomic<int> g_signals{0};
+
+void OnSignal(int) { g_signals.fetch_add(1); }
+
+std::string KindName(YamorFieldKind kind) {
+  switch (kind) {
+    case YAMOR_FIELD_INTEGER: return "integer";
+    case YAMOR_FIELD_REAL: return "real";
+    case YAMOR_FIELD_BOOLEAN: return "boolean";
+    case YAMOR_FIELD_FILE: return "file";
+    case YAMOR_FIELD_CHOICE: return "choice";
+    case YAMOR_FIELD_TEXT: return "text";
+  }
+  return "?";
+}
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+int ListPlugins(const std::vector<std::string>& dirs) {
+  const std::vector<std::string> files = ListPluginFiles(dirs);
+  if (files.empty()) {
+    std::cout << "no optimizer plugins found in:";
+    for (const auto& d : dirs) std::cout << " " << d;
+    std::cout << "\n";
+    return 1;
+  }
+  for (const std::string& file : files) {
+    try {
+      const LoadedPlugin p = LoadedPlugin::Load(file);
+      std::cout << p.name() << " " << p.version() << " (" << p.author() << ") — " << p.description()
+                << "\n  " << file << "\n";
+      for (const FieldSpec& f : p.fields()) {
+        std::cout << "  --set " << f.name << "=" << (f.default_value.empty() ? "\"\"" : f.default_value)
+                  << "  [" << KindName(f.kind);
+        if (f.kind == YAMOR_FIELD_INTEGER || f.kind == YAMOR_FIELD_REAL) {
+          std::cout << " in [" << Num(f.min) << ", " << Num(f.max) << "]";
+        }
+        if (f.kind == YAMOR_FIELD_CHOICE) {
+          std::cout << ":";
+          for (std::size_t i = 0; i < f.choices.size(); ++i) std::cout << (i ? "|" : " ") << f.choices[i];
+        }
+        std::cout << "] " << f.description << (f.framework ? " (every plugin)" : "") << "\n";
+      }
+    } catch (const Error& e) {
+      std::cout << file << ": not usable: " << e.what() << "\n";
+    }
+  }
+  return 0;
+}
+
+std::string Duration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "?";
+  const long s = std::lround(seconds);
+  std::ostringstream out;
+  if (s >= 3600) out << s / 3600 << "h" << (s % 3600) / 60 << "m";
+  else if (s >= 60) out << s / 60 << "m" << s % 60 << "s";
+  else out << s << "s";
+  return out.str();
+}
+
+// One progress line over every running instance.
+std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, double elapsed) {
+  long long done = 0, budget = 0;
+  bool has_best = false;
+  double best = 0.0;
+  std::string status;
+  for (const auto& s : sessions) {
+    const SessionSnapshot snap = s->Snapshot();
+    done += snap.evaluations;
+    budget += snap.budget;
+    if (snap.has_best && (!has_best || snap.best_velocity > best)) best = snap.best_velocity;
+    has_best = has_best || snap.has_best;
+    if (sessions.size() == 1) status = snap.plugin_status;
+  }
+  const double rate = elapsed > 0 ? done / elapsed : 0.0;
+  std::ostringstream line;
+  line << done << "/" << budget << " evaluations";
+  line << " | best " << (has_best ? Num(std::round(best * 1e4) / 100.0) + " cm/s" : std::string("-"));
+  char rate_text[32];
+  std::snprintf(rate_text, sizeof(rate_text), "%.2f", rate);
+  line << " | " << rate_text << " eval/s | elapsed " << Duration(elapsed);
+  if (rate > 0 && budget > done) line << " | at most " << Duration((budget - done) / rate) << " left";
+  if (!status.empty()) line << " | " << status;
+  return line.str();
+}
+
+std::string FindPython(const std::string& source_dir) {
+  if (const char* env = std::getenv("YAMOR_PYTHON"); env != nullptr && *env) return env;
+  const fs::path venv = fs::path(source_dir) / ".venv/bin/python";
+  if (fs::exists(venv)) return venv.string();
+  return "python3";
+}
+
+std::string Quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') out += "'\\''";
+    else out += c;
+  }
+  return out + "'";
+}
+
+void PlotProgress(const std::string& out_dir, const std::string& title) {
+  const std::string source_dir = YAMOR_SOURCE_DIR_FOR_TOOLS;
+  const std::string script = source_dir + "/tools/plot/plot_progress.py";
+  if (!fs::exists(script)) {
+    Log().warn("progress.png not drawn: {} is missing", script);
+    return;
+  }
+  const std::string command = Quote(FindPython(source_dir)) + " " + Quote(script) + " " +
+                              Quote(out_dir + "/evaluations.csv") + " " +
+                              Quote(out_dir + "/progress.png") + " --title " + Quote(title) +
+                              " >/dev/null 2>&1";
+  if (std::system(command.c_str()) != 0) {
+    Log().warn("progress.png not drawn ({} failed; is matplotlib installed? `make deps`)", script);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "yamor-optimize: learns gaits by running an optimizer plugin over a pool of yamord hosts.\n"
+      "Example: yamor-optimize --plugin powell --config configs/optimize/quadruped-7.xml "
+      "--world quadruped --hosts 127.0.0.1:2224 --out results/run1"};
+  std::string plugin_name, config_path, hosts_spec = "127.0.0.1:2224", out_dir, batch_path;
+  std::string world, morphology_path, log_level = "info";
+  std::vector<std::string> sets, plugin_dirs;
+  std::uint64_t seed = 1, eval_seed = 0;
+  double warmup = 8.0, duration = 12.0, time_step = 0.0, give_up_after = 120.0;
+  bool list_plugins = false, no_plot = false, quiet = false;
+  app.add_flag("--list-plugins", list_plugins, "List the plugins found and their fields, then exit");
+  app.add_option("--plugin", plugin_name, "Plugin name (NAME.so in the plugin folders) or path to a .so");
+  app.add_option("--plugin-dir", plugin_dirs, "Extra folder to look for plugins in (before the defaults)");
+  app.add_option("--config", config_path, "Optimization configuration (robot + optimize/constrain rules)");
+  app.add_option("--hosts", hosts_spec, "yamord hosts: H:P,H:P or @FILE (one per line)")->capture_default_str();
+  app.add_option("--world", world, "Built-in world (morphology) the daemons simulate, e.g. quadruped; "
+                                   "default: each daemon's own world");
+  app.add_option("--morphology", morphology_path, "Morphology XML file sent to the daemons (overrides --world)");
+  app.add_option("--set", sets, "Plugin field value KEY=VALUE (repeatable; see --list-plugins)");
+  app.add_option("--batch", batch_path, "Batch start: a TOML file of [[instance]] tables (name, seed, set)");
+  app.add_option("--seed", seed, "Seed of the plugin's random generator")->capture_default_str();
+  app.add_option("--eval-seed", eval_seed, "Seed of every simulated evaluation")->capture_default_str();
+  app.add_option("--warmup", warmup, "Seconds before the measured span (thesis 6.2.1)")->capture_default_str();
+  app.add_option("--duration", duration, "Measured span [s]")->capture_default_str();
+  app.add_option("--time-step", time_step, "Physics step [s]; 0 = the daemon's default")->capture_default_str();
+  app.add_option("--give-up-after", give_up_after,
+                 "Fail when no host is reachable for this long while work waits [s]")->capture_default_str();
+  app.add_option("--out", out_dir, "Results folder (evaluations.csv, best.xml, summary.json, progress.png)");
+  app.add_flag("--no-plot", no_plot, "Do not draw progress.png");
+  app.add_flag("--quiet", quiet, "No progress line");
+  app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    SetLogLevel(log_level);
+    std::vector<std::string> dirs = plugin_dirs;
+    for (const auto& d : DefaultPluginDirs()) dirs.push_back(d);
+    if (list_plugins) return ListPlugins(dirs);
+
+    if (plugin_name.empty()) throw Error(StatusCode::kInvalidArgument, "--plugin is required (see --list-plugins)");
+    if (config_path.empty()) throw Error(StatusCode::kInvalidArgument, "--config is required");
+    if (out_dir.empty()) throw Error(StatusCode::kInvalidArgument, "--out is required");
+    if (!(warmup >= 0 && duration > 0)) {
+      throw Error(StatusCode::kInvalidArgument, "--warmup must be >= 0 and --duration > 0");
+    }
+    std::map<std::string, std::string> set;
+    for (const std::string& kv : sets) {
+      const auto eq = kv.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        throw Error(StatusCode::kInvalidArgument, "--set " + kv + ": expected KEY=VALUE");
+      }
+      set[kv.substr(0, eq)] = kv.substr(eq + 1);
+    }
+
+    const LoadedPlugin plugin = LoadedPlugin::Load(FindPlugin(plugin_name, dirs));
+    const OptimizationConfig config = OptimizationConfig::LoadFile(config_path);
+    const Problem problem = MakeProblem(config);
+
+    std::vector<BatchInstance> instances;
+    if (!batch_path.empty()) {
+      instances = LoadBatchFile(batch_path, seed);
+    } else {
+      instances.push_back({"run", seed, {}});
+    }
+
+    EvaluationSettings settings;
+    settings.config_xml = config.RobotXml();
+    settings.world = world;
+    if (!morphology_path.empty()) {
+      std::ifstream in(morphology_path);
+      if (!in) throw Error(StatusCode::kNotFound, "cannot read --morphology " + morphology_path);
+      std::stringstream text;
+      text << in.rdbuf();
+      settings.morphology_xml = text.str();
+    }
+    settings.warmup = warmup;
+    settings.duration = duration;
+    settings.seed = eval_seed;
+    settings.time_step = time_step;
+    PoolOptions pool_options;
+    pool_options.give_up_after = give_up_after;
+    const std::vector<HostAddress> hosts = ParseHosts(hosts_spec);
+    std::string host_list;
+    for (const auto& h : hosts) host_list += (host_list.empty() ? "" : ",") + h.ToString();
+
+    // Field values are validated for every instance before any host works.
+    std::vector<std::unique_ptr<Session>> sessions;
+    std::vector<std::string> instance_dirs;
+    HostPool pool(hosts, settings, pool_options);
+    for (const BatchInstance& instance : instances) {
+      std::map<std::string, std::string> instance_set = set;
+      for (const auto& [k, v] : instance.set) instance_set[k] = v;
+      const std::string dir = batch_path.empty() ? out_dir : (fs::path(out_dir) / instance.name).string();
+      instance_dirs.push_back(dir);
+      sessions.push_back(std::make_unique<Session>(
+          plugin, problem, pool,
+          SessionOptions{.label = instance.name, .seed = instance.seed, .set = instance_set,
+                         .out_dir = dir, .evaluator_description = host_list}));
+    }
+    int up = 0;
+    for (const auto& s : pool.Status()) up += s.up ? 1 : 0;
+    std::cerr << "yamor-optimize: " << plugin.name() << " " << plugin.version() << " on "
+              << config.optimized().size() << " parameters of " << config_path << "; " << up << "/"
+              << hosts.size() << " hosts up (capacity " << pool.Capacity() << "); results in " << out_dir
+              << "\n";
+
+    std::signal(SIGINT, OnSignal);
+    std::signal(SIGTERM, OnSignal);
+
+    std::vector<SessionResult> results(sessions.size());
+    std::atomic<std::size_t> running{sessions.size()};
+    std::vector<std::thread> threads;
+    for (std::size_t i = 0; i < sessions.size(); ++i) {
+      threads.emplace_back([&, i] {
+        results[i] = sessions[i]->Run();
+        running.fetch_sub(1);
+      });
+    }
+    const auto start = std::chrono::steady_clock::now();
+    const bool tty = isatty(STDERR_FILENO) != 0;
+    auto last_line = std::chrono::steady_clock::now();
+    bool stopping = false;
+    while (running.load() > 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      if (g_signals.load() > 0 && !stopping) {
+        stopping = true;
+        std::cerr << (tty ? "\n" : "") << "yamor-optimize: stopping (results so far are kept)\n";
+        for (auto& s : sessions) s->RequestStop();
+        pool.RequestStop();
+      }
+      const auto now = std::chrono::steady_clock::now();
+      const double elapsed = std::chrono::duration<double>(now - start).count();
+      if (!quiet && (tty || now - last_line > std::chrono::seconds(10))) {
+        const std::string line = ProgressLine(sessions, elapsed);
+        if (tty) std::cerr << "\r\033[K" << line << std::flush;
+        else std::cerr << "yamor-optimize: " << line << "\n";
+        last_line = now;
+      }
+    }
+    for (auto& t : threads) t.join();
+    if (!quiet && tty) std::cerr << "\r\033[K" << ProgressLine(sessions,
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()) << "\n";
+
+    int exit_code = 0;
+    for (std::size_t i = 0; i < sessions.size(); ++i) {
+      const SessionResult& r = results[i];
+      if (!no_plot && r.evaluations > 0) {
+        PlotProgress(instance_dirs[i], plugin.name() + " on " + fs::path(config_path).filename().string() +
+                                           (batch_path.empty() ? "" : " (" + instances[i].name + ")"));
+      }
+      std::cout << "yamor-optimize: " << (batch_path.empty() ? "" : "[" + instances[i].name + "] ")
+                << r.status << " after " << r.evaluations << " evaluations";
+      if (r.has_best) {
+        char velocity[64];
+        std::snprintf(velocity, sizeof(velocity), "%.3f cm/s", r.best_velocity * 100.0);
+        std::cout << "; best velocity " << velocity << " (evaluation " << r.best_index << ")";
+      }
+      std::cout << "\n";
+      if (!r.error.empty()) std::cout << "  error: " << r.error << "\n";
+      const fs::path dir = fs::absolute(instance_dirs[i]);
+      std::cout << "  results:   " << dir.string() << "/ (evaluations.csv, summary.json)\n";
+      if (r.has_best) std::cout << "  best gait: " << (dir / "best.xml").string() << "\n";
+      if (fs::exists(dir / "progress.png")) std::cout << "  plot:      " << (dir / "progress.png").string() << "\n";
+      if (r.status == "failed") exit_code = 1;
+    }
+    if (g_signals.load() > 0 && exit_code == 0) exit_code = 130;
+    return exit_code;
+  } catch (const Error& e) {
+    std::cerr << "yamor-optimize: " << e.what() << "\n";
+    return e.code() == StatusCode::kInvalidArgument || e.code() == StatusCode::kNotFound ? 2 : 1;
+  } catch (const std::exception& e) {
+    std::cerr << "yamor-optimize: " << e.what() << "\n";
+    return 1;
+  }
+}
