@@ -208,3 +208,20 @@ def test_sigint_stops_and_keeps_the_results(two_daemons, tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "stopped"
     assert summary["evaluations"] == len(read_csv(csv_path)) >= 3
+
+
+def test_a_plugin_built_outside_the_tree_from_the_header_alone_runs(two_daemons, tmp_path):
+    """docs/optimizers.md's promise: the example plugin builds with nothing but the header."""
+    plugin = tmp_path / "my_random.so"
+    subprocess.run(["g++", "-std=c++17", "-O1", "-shared", "-fPIC", "-fvisibility=hidden",
+                    "-I", str(REPO / "optimizer-plugins" / "include"),
+                    str(REPO / "optimizer-plugins" / "random" / "random.cc"), "-o", str(plugin)],
+                   check=True, timeout=120)
+    symbols = subprocess.run(["nm", "-D", "--defined-only", str(plugin)], capture_output=True,
+                             text=True, check=True).stdout.split()
+    assert "yamor_optimizer_plugin" in symbols
+    out = tmp_path / "run"
+    run_optimize(["--plugin", str(plugin), "--config", str(CONFIG), "--hosts", ",".join(two_daemons),
+                  *SHORT, "--set", "max_evaluations=5", "--set", "batch=4", "--no-plot",
+                  "--out", str(out)])
+    assert len(read_csv(out / "evaluations.csv")) == 5
