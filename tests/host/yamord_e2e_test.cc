@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "tests/host/grpc_util.h"
+#include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::host {
@@ -25,92 +26,10 @@ using Clock = std::chrono::steady_clock;
 
 const char* const kYamord = YAMORD_PATH;
 
-// A yamord child process. stdout is a pipe (the "listening on" line);
-// stderr goes to the test's stderr.
-class Daemon {
+// A yamord child process (tests/support/yamord_process.h).
+class Daemon : public ::yamor::testing::YamordProcess {
  public:
-  explicit Daemon(std::vector<std::string> args) {
-    args.insert(args.begin(), kYamord);
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    int fds[2];
-    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
-    pid_ = fork();
-    if (pid_ == 0) {
-      dup2(fds[1], STDOUT_FILENO);
-      close(fds[0]);
-      close(fds[1]);
-      execv(kYamord, argv.data());
-      _exit(127);
-    }
-    close(fds[1]);
-    out_ = fds[0];
-  }
-  ~Daemon() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    if (out_ >= 0) close(out_);
-  }
-
-  // Everything the daemon printed to stdout until it closed it or `timeout`.
-  std::string ReadAll(std::chrono::seconds timeout = std::chrono::seconds(30)) {
-    std::string text;
-    const auto deadline = Clock::now() + timeout;
-    while (Clock::now() < deadline) {
-      pollfd p{out_, POLLIN, 0};
-      if (poll(&p, 1, 100) <= 0) continue;
-      char buffer[4096];
-      const ssize_t n = read(out_, buffer, sizeof buffer);
-      if (n <= 0) break;
-      text.append(buffer, static_cast<std::size_t>(n));
-    }
-    return text;
-  }
-
-  // Waits for "yamord: listening on HOST:PORT" and returns the port (0 on failure).
-  int WaitForPort() {
-    std::string line;
-    const auto deadline = Clock::now() + std::chrono::seconds(30);
-    while (Clock::now() < deadline) {
-      pollfd p{out_, POLLIN, 0};
-      if (poll(&p, 1, 100) <= 0) continue;
-      char c = 0;
-      if (read(out_, &c, 1) != 1) return 0;
-      if (c != '\n') {
-        line.push_back(c);
-        continue;
-      }
-      const std::string prefix = "yamord: listening on 127.0.0.1:";
-      if (line.rfind(prefix, 0) == 0) return std::stoi(line.substr(prefix.size()));
-      line.clear();
-    }
-    return 0;
-  }
-
-  // Waits up to `timeout` for the exit; the exit status, or -1 if it did not
-  // exit (a hang guard, not a performance check), or -2 if killed by a signal.
-  int WaitForExit(std::chrono::seconds timeout) {
-    const auto deadline = Clock::now() + timeout;
-    while (Clock::now() < deadline) {
-      int status = 0;
-      const pid_t r = waitpid(pid_, &status, WNOHANG);
-      if (r == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -2;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
-  }
-
-  void Signal(int signal) { kill(pid_, signal); }
-
- private:
-  pid_t pid_ = -1;
-  int out_ = -1;
+  explicit Daemon(std::vector<std::string> args) : YamordProcess(kYamord, std::move(args)) {}
 };
 
 // A running yamord with a channel to it.

@@ -14,6 +14,7 @@
 
 #include "common/status.h"
 #include "tests/optimizer-plugins/host_pool/host_pool_test_util.h"
+#include "tests/support/yamord_process.h"
 
 namespace yamor::optimizer {
 namespace {
@@ -23,68 +24,18 @@ using std::chrono::seconds;
 
 const char* const kYamord = YAMORD_PATH;
 
-// A yamord child process on 127.0.0.1:0; stdout is a pipe (the "listening
-// on" line), stderr goes to the test's stderr. Killed at the end.
-class Daemon {
+// A yamord on 127.0.0.1:0 with `workers` Evaluate workers, killed at the end.
+class Daemon : public ::yamor::testing::YamordProcess {
  public:
-  explicit Daemon(int workers) {
-    std::vector<std::string> args = {kYamord,      "--listen", "127.0.0.1:0", "--log-level",
-                                     "warn",       "--workers", std::to_string(workers)};
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    int fds[2];
-    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
-    pid_ = fork();
-    if (pid_ == 0) {
-      dup2(fds[1], STDOUT_FILENO);
-      close(fds[0]);
-      close(fds[1]);
-      execv(kYamord, argv.data());
-      _exit(127);
-    }
-    close(fds[1]);
-    out_ = fds[0];
-    port_ = WaitForPort();
-  }
-  ~Daemon() {
-    Kill();
-    if (out_ >= 0) close(out_);
-  }
-
-  void Kill() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-    pid_ = -1;
-  }
+  explicit Daemon(int workers)
+      : YamordProcess(kYamord, {"--listen", "127.0.0.1:0", "--log-level", "warn", "--workers",
+                                std::to_string(workers)}),
+        port_(WaitForPort()) {}
   int port() const { return port_; }
   HostAddress address() const { return HostAddress{"127.0.0.1", port_}; }
 
  private:
-  // Waits for "yamord: listening on 127.0.0.1:PORT"; 0 on failure.
-  int WaitForPort() {
-    std::string line;
-    const auto deadline = Clock::now() + seconds(30);
-    while (Clock::now() < deadline) {
-      pollfd p{out_, POLLIN, 0};
-      if (poll(&p, 1, 100) <= 0) continue;
-      char c = 0;
-      if (read(out_, &c, 1) != 1) return 0;
-      if (c != '\n') {
-        line.push_back(c);
-        continue;
-      }
-      const std::string prefix = "yamord: listening on 127.0.0.1:";
-      if (line.rfind(prefix, 0) == 0) return std::stoi(line.substr(prefix.size()));
-      line.clear();
-    }
-    return 0;
-  }
-
-  pid_t pid_ = -1;
-  int out_ = -1;
-  int port_ = 0;
+  int port_;
 };
 
 EvaluationSettings Quadruped() {
