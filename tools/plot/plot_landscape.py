@@ -106,10 +106,11 @@ def draw(landscape, png, path=None, title=None, label=None):
         px, py = path_points
         ax.plot(px, py, "-o", color="white", markeredgecolor="black", markersize=3.5, linewidth=1.2,
                 label=f"path ({len(px)} evaluations)")
+        # clip_on=False: a start on the domain's edge (a bound) stays whole.
         ax.plot(px[0], py[0], marker="*", markersize=16, color="lime", markeredgecolor="black",
-                linestyle="none", label="start")
+                linestyle="none", label="start", clip_on=False, zorder=5)
         ax.plot(px[-1], py[-1], marker="X", markersize=11, color="white", markeredgecolor="black",
-                linestyle="none", label="last")
+                linestyle="none", label="last", clip_on=False, zorder=5)
         ax.legend(loc="upper right", fontsize="small", framealpha=0.8)
     ax.set_xlim(xs[0], xs[-1])
     ax.set_ylim(ys[0], ys[-1])

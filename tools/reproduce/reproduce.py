@@ -306,14 +306,22 @@ def draw_fig6_12(curves, letters, png: Path, s: Settings) -> None:
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5), dpi=100, sharey=True)
     panels = [("classic", "Classic Powell (Brent line search)", plt.cm.Blues),
               ("interval", "Powell with interval line search (6.2.5)", plt.cm.Reds)]
+    span = max((max(c) for c in curves.values() if c), default=1.0)
     for ax, (method, title, cmap) in zip(axes, panels):
+        placed = []  # (x end, label y) of the labels drawn, to keep them apart
         for i, letter in enumerate(letters):
             curve = curves[(method, letter)]
             if not curve:
                 continue
             color = cmap(0.35 + 0.6 * i / max(1, len(letters) - 1))
             ax.plot(range(1, len(curve) + 1), curve, color=color, linewidth=1.4)
-            ax.annotate(letter, (len(curve), curve[-1]), textcoords="offset points", xytext=(3, 0),
+            # Runs that end at about the same point and value get stacked labels.
+            y = curve[-1]
+            while any(abs(len(curve) - x) < 0.08 * s.budget and abs(y - py) < 0.03 * span
+                      for x, py in placed):
+                y += 0.03 * span
+            placed.append((len(curve), y))
+            ax.annotate(letter, (len(curve), y), textcoords="offset points", xytext=(3, 0),
                         fontsize=8, color=color, va="center")
         ax.set_title(title)
         ax.set_xlabel("evaluation")
