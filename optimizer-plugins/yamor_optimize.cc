@@ -117,7 +117,9 @@ std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, 
   const double rate = elapsed > 0 ? done / elapsed : 0.0;
   std::ostringstream line;
   line << done << "/" << budget << " evaluations";
-  line << " | best " << (has_best ? Num(std::round(best * 1e4) / 100.0) + " cm/s" : std::string("-"));
+  char best_text[32] = "-";
+  if (has_best) std::snprintf(best_text, sizeof(best_text), "%.2f cm/s", best * 100.0);
+  line << " | best " << best_text;
   char rate_text[32];
   std::snprintf(rate_text, sizeof(rate_text), "%.2f", rate);
   line << " | " << rate_text << " eval/s | elapsed " << Duration(elapsed);
