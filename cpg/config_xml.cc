@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::cpg {
@@ -376,12 +377,6 @@ class Reader {
   RobotConfig config_;
 };
 
-std::string Num(double value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return std::string(buffer, result.ptr);
-}
-
 }  // namespace
 
 RobotConfig ParseConfigXml(std::string_view xml, std::string_view source_name) {
@@ -425,10 +420,10 @@ std::string WriteConfigXml(const RobotConfig& config) {
   out += "  <modulelist>\n";
   for (const ModuleParams& module : config.modules) {
     out += "    <module realid=\"" + std::to_string(module.id) +
-           "\" amplitude=\"" + Num(module.amplitude) + "\" offset=\"" +
-           Num(module.offset) + "\" speed=\"" + Num(module.speed) +
-           "\" minangle=\"" + Num(module.min_angle) + "\" maxangle=\"" +
-           Num(module.max_angle) + "\"";
+           "\" amplitude=\"" + FormatDouble(module.amplitude) + "\" offset=\"" +
+           FormatDouble(module.offset) + "\" speed=\"" + FormatDouble(module.speed) +
+           "\" minangle=\"" + FormatDouble(module.min_angle) + "\" maxangle=\"" +
+           FormatDouble(module.max_angle) + "\"";
     std::string body;
     if (const auto it = children.find(module.id); it != children.end()) {
       for (ModuleId child : it->second) {
@@ -438,8 +433,8 @@ std::string WriteConfigXml(const RobotConfig& config) {
     for (const Coupling& coupling : config.couplings) {
       if (coupling.from != module.id) continue;
       body += "      <cpglink to=\"" + std::to_string(coupling.to) +
-              "\" phase=\"" + Num(coupling.phase) + "\" weight=\"" +
-              Num(coupling.weight) + "\"/>\n";
+              "\" phase=\"" + FormatDouble(coupling.phase) + "\" weight=\"" +
+              FormatDouble(coupling.weight) + "\"/>\n";
     }
     out += body.empty() ? "/>\n" : ">\n" + body + "    </module>\n";
   }

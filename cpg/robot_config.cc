@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::cpg {
@@ -34,13 +35,6 @@ Coupling* RobotConfig::FindCoupling(ModuleId from, ModuleId to) {
 }
 
 namespace {
-
-// Shortest round-trip text of a double, as written to XML ("nan", "inf" too).
-std::string Num(double value) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return std::string(buffer, result.ptr);
-}
 
 // Builds the "file:line: " prefix of messages; empty when nothing is known.
 // Thread-safety: reads the config only; lives within one Validate call.
@@ -111,18 +105,18 @@ void CheckModule(const ModuleParams& module, const Locator& at) {
       {"maxangle", module.max_angle}};
   for (const auto& [name, value] : values) {
     if (!std::isfinite(value)) {
-      Fail(where + name + " (" + Num(value) + ") must be finite");
+      Fail(where + name + " (" + FormatDouble(value) + ") must be finite");
     }
   }
   if (module.amplitude < 0.0) {
-    Fail(where + "amplitude (" + Num(module.amplitude) + ") must be >= 0");
+    Fail(where + "amplitude (" + FormatDouble(module.amplitude) + ") must be >= 0");
   }
   if (module.speed < 0.0) {
-    Fail(where + "speed (" + Num(module.speed) + ") must be >= 0");
+    Fail(where + "speed (" + FormatDouble(module.speed) + ") must be >= 0");
   }
   if (!(module.min_angle < module.max_angle)) {
-    Fail(where + "minangle (" + Num(module.min_angle) +
-         ") must be < maxangle (" + Num(module.max_angle) + ")");
+    Fail(where + "minangle (" + FormatDouble(module.min_angle) +
+         ") must be < maxangle (" + FormatDouble(module.max_angle) + ")");
   }
 }
 
@@ -147,10 +141,10 @@ void CheckCouplings(const RobotConfig& config, const std::set<ModuleId>& ids,
       Fail(where + " appears twice");
     }
     if (!std::isfinite(coupling.phase)) {
-      Fail(where + ": phase (" + Num(coupling.phase) + ") must be finite");
+      Fail(where + ": phase (" + FormatDouble(coupling.phase) + ") must be finite");
     }
     if (!std::isfinite(coupling.weight)) {
-      Fail(where + ": weight (" + Num(coupling.weight) + ") must be finite");
+      Fail(where + ": weight (" + FormatDouble(coupling.weight) + ") must be finite");
     }
   }
 }

@@ -22,6 +22,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "optimizer-plugins/framework/host_pool.h"
@@ -52,12 +53,6 @@ std::string KindName(YamorFieldKind kind) {
   return "?";
 }
 
-std::string Num(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
-
 int ListPlugins(const std::vector<std::string>& dirs) {
   const std::vector<std::string> files = ListPluginFiles(dirs);
   if (files.empty()) {
@@ -75,7 +70,7 @@ int ListPlugins(const std::vector<std::string>& dirs) {
         std::cout << "  --set " << f.name << "=" << (f.default_value.empty() ? "\"\"" : f.default_value)
                   << "  [" << KindName(f.kind);
         if (f.kind == YAMOR_FIELD_INTEGER || f.kind == YAMOR_FIELD_REAL) {
-          std::cout << " in [" << Num(f.min) << ", " << Num(f.max) << "]";
+          std::cout << " in [" << FormatDouble(f.min) << ", " << FormatDouble(f.max) << "]";
         }
         if (f.kind == YAMOR_FIELD_CHOICE) {
           std::cout << ":";

@@ -18,6 +18,7 @@
 #include <string_view>
 #include <system_error>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
@@ -36,13 +37,6 @@ constexpr char kNameChars[] =
 
 [[noreturn]] void Fail(const std::string& message) {
   throw Error(StatusCode::kInvalidArgument, message);
-}
-
-std::string Num(double value) {
-  if (std::isnan(value)) return "nan";  // not "-nan": the sign of a NaN means nothing here
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  return std::string(buffer, result.ptr);
 }
 
 std::string_view Trim(std::string_view text) {
@@ -224,7 +218,7 @@ struct OptimizationConfig::Engine {
   std::string Point(const std::vector<double>& x) const {
     std::string out;
     for (std::size_t k = 0; k < x.size() && k < optimized.size(); ++k) {
-      out += (out.empty() ? "" : ", ") + optimized[k].param + "=" + Num(x[k]);
+      out += (out.empty() ? "" : ", ") + optimized[k].param + "=" + FormatDouble(x[k]);
     }
     return out;
   }
@@ -303,12 +297,12 @@ struct OptimizationConfig::Engine {
     for (std::size_t k = 0; k < x.size(); ++k) {
       const OptimizeRule& rule = optimized[k];
       if (!std::isfinite(x[k])) {
-        Fail(At(rule.line) + "optimize rule for '" + rule.param + "': value " + Num(x[k]) +
+        Fail(At(rule.line) + "optimize rule for '" + rule.param + "': value " + FormatDouble(x[k]) +
              " is not finite" + when);
       }
       if (!(x[k] >= rule.min && x[k] <= rule.max)) {
-        Fail(At(rule.line) + "optimize rule for '" + rule.param + "': value " + Num(x[k]) +
-             " is outside [" + Num(rule.min) + ", " + Num(rule.max) + "]" + when);
+        Fail(At(rule.line) + "optimize rule for '" + rule.param + "': value " + FormatDouble(x[k]) +
+             " is outside [" + FormatDouble(rule.min) + ", " + FormatDouble(rule.max) + "]" + when);
       }
     }
     Lease lease(*this);
@@ -329,13 +323,13 @@ struct OptimizationConfig::Engine {
         FailParser(rule, e);
       }
       if (!std::isfinite(value)) {
-        Fail(RuleWhere(rule) + " evaluates to " + Num(value) + " for " + Point(x) + when);
+        Fail(RuleWhere(rule) + " evaluates to " + FormatDouble(value) + " for " + Point(x) + when);
       }
       const FieldRange& range = ranges[constrained_index[k]];
       if (!(value >= range.lo && value <= range.hi)) {
-        Fail(RuleWhere(rule) + " evaluates to " + Num(value) +
+        Fail(RuleWhere(rule) + " evaluates to " + FormatDouble(value) +
              ", outside what the modules accept ([" +
-             Num(range.lo) + ", " + Num(range.hi) + "]), for " + Point(x) + when);
+             FormatDouble(range.lo) + ", " + FormatDouble(range.hi) + "]), for " + Point(x) + when);
       }
       values[constrained_index[k]] = value;
       out.emplace_back(rule.param, value);
@@ -343,8 +337,8 @@ struct OptimizationConfig::Engine {
     for (const LimitPair& pair : limit_pairs) {
       if (!(values[pair.min] < values[pair.max])) {
         Fail(At(pair.line) + "a candidate sets " + names[pair.min] + " = " +
-             Num(values[pair.min]) + " not below " + names[pair.max] + " = " +
-             Num(values[pair.max]) + " (a module needs min angle < max angle), for " + Point(x) +
+             FormatDouble(values[pair.min]) + " not below " + names[pair.max] + " = " +
+             FormatDouble(values[pair.max]) + " (a module needs min angle < max angle), for " + Point(x) +
              when);
       }
     }
@@ -434,7 +428,7 @@ class RuleReader {
     rule.min = Bound(element, "min", context);
     rule.max = Bound(element, "max", context);
     if (!(rule.min < rule.max)) {
-      Fail(context + "min (" + Num(rule.min) + ") must be below max (" + Num(rule.max) + ")");
+      Fail(context + "min (" + FormatDouble(rule.min) + ") must be below max (" + FormatDouble(rule.max) + ")");
     }
     return rule;
   }
@@ -531,9 +525,9 @@ OptimizationConfig OptimizationConfig::Parse(const std::string& xml,
     if (rule.optimize) {
       const FieldRange range = RangeOf(KindOf(rule.param));
       if (rule.min < range.lo || rule.max > range.hi) {
-        Fail(where + "parameter '" + rule.param + "': bounds [" + Num(rule.min) + ", " +
-             Num(rule.max) + "] exceed what the modules accept for " +
-             std::string(KindOf(rule.param)) + " ([" + Num(range.lo) + ", " + Num(range.hi) +
+        Fail(where + "parameter '" + rule.param + "': bounds [" + FormatDouble(rule.min) + ", " +
+             FormatDouble(rule.max) + "] exceed what the modules accept for " +
+             std::string(KindOf(rule.param)) + " ([" + FormatDouble(range.lo) + ", " + FormatDouble(range.hi) +
              "])");
       }
       config.optimized_.push_back(
@@ -614,8 +608,8 @@ std::vector<double> OptimizationConfig::ClampedStart(bool log) const {
     if (log && clamped != value) {
       Log().warn("{}the configuration's {} = {} is outside the optimize bounds [{}, {}]; "
                  "starting from {}",
-                 At(rule.line), rule.param, Num(value), Num(rule.min), Num(rule.max),
-                 Num(clamped));
+                 At(rule.line), rule.param, FormatDouble(value), FormatDouble(rule.min), FormatDouble(rule.max),
+                 FormatDouble(clamped));
     }
     start.push_back(clamped);
   }

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::optimizer {
@@ -18,12 +19,6 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string Text(const char* s) { return s == nullptr ? std::string() : std::string(s); }
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
 
 [[noreturn]] void Fail(const std::string& path, const std::string& why) {
   throw Error(StatusCode::kFailedPrecondition, "optimizer plugin " + path + ": " + why);
@@ -82,7 +77,7 @@ std::string NormalizeFieldValue(const FieldSpec& field, const std::string& value
       long long v = 0;
       if (!ParseInteger(value, v)) throw bad("an integer");
       if (v < field.min || v > field.max) {
-        throw bad("in [" + Num(field.min) + ", " + Num(field.max) + "]");
+        throw bad("in [" + FormatDouble(field.min) + ", " + FormatDouble(field.max) + "]");
       }
       return std::to_string(v);
     }
@@ -90,7 +85,7 @@ std::string NormalizeFieldValue(const FieldSpec& field, const std::string& value
       double v = 0.0;
       if (!ParseDouble(value, v)) throw bad("a finite number");
       if (v < field.min || v > field.max) {
-        throw bad("in [" + Num(field.min) + ", " + Num(field.max) + "]");
+        throw bad("in [" + FormatDouble(field.min) + ", " + FormatDouble(field.max) + "]");
       }
       return value;
     }
@@ -180,7 +175,7 @@ LoadedPlugin LoadedPlugin::Load(const std::string& path) {
     spec.kind = static_cast<YamorFieldKind>(f.kind);
     if ((spec.kind == YAMOR_FIELD_INTEGER || spec.kind == YAMOR_FIELD_REAL) &&
         !(std::isfinite(spec.min) && std::isfinite(spec.max) && spec.min <= spec.max)) {
-      Fail(path, where + " has invalid bounds [" + Num(spec.min) + ", " + Num(spec.max) + "]");
+      Fail(path, where + " has invalid bounds [" + FormatDouble(spec.min) + ", " + FormatDouble(spec.max) + "]");
     }
     if (spec.kind == YAMOR_FIELD_CHOICE) {
       spec.choices = SplitChoices(Text(f.choices));

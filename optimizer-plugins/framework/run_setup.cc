@@ -6,6 +6,7 @@
 
 #include <toml++/toml.h>
 
+#include "common/format.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
 

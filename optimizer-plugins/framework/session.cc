@@ -1,11 +1,11 @@
 #include "optimizer-plugins/framework/session.h"
 
-#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 
@@ -28,15 +28,11 @@ std::string CsvField(const std::string& text) {
   return out + "\"";
 }
 
-}  // namespace
+// A number for the results files: exact, and never NaN or inf (callers check
+// values first; this is the last guard of the "no NaN in any output" promise).
+std::string OutputNumber(double value) { return FormatDouble(std::isfinite(value) ? value : 0.0); }
 
-std::string FormatDouble(double value) {
-  if (!std::isfinite(value)) return "0";
-  char buffer[64];
-  auto [ptr, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
-  YAMOR_CHECK(ec == std::errc(), "to_chars of a double cannot fail with 64 bytes");
-  return std::string(buffer, ptr);
-}
+}  // namespace
 
 std::string JsonEscape(const std::string& text) {
   std::string out;
@@ -249,10 +245,10 @@ void Session::Record(const std::vector<std::vector<double>>& points,
           csv_ << ",velocity,distance,diverged,host,wall_seconds\n";
         }
         csv_ << record.index;
-        for (const auto& [name, value] : batch[k].parameters) csv_ << ',' << FormatDouble(value);
-        csv_ << ',' << FormatDouble(results[k].velocity) << ',' << FormatDouble(results[k].distance)
+        for (const auto& [name, value] : batch[k].parameters) csv_ << ',' << OutputNumber(value);
+        csv_ << ',' << OutputNumber(results[k].velocity) << ',' << OutputNumber(results[k].distance)
              << ',' << (results[k].diverged ? 1 : 0) << ',' << CsvField(results[k].host) << ','
-             << FormatDouble(results[k].wall_seconds) << '\n';
+             << OutputNumber(results[k].wall_seconds) << '\n';
       }
       records_.push_back(std::move(record));
     }
@@ -370,23 +366,23 @@ void Session::WriteSummary(const SessionResult& result) const {
   j << "  \"status\": \"" << result.status << "\",\n";
   j << "  \"error\": \"" << JsonEscape(result.error) << "\",\n";
   j << "  \"evaluations\": " << result.evaluations << ",\n";
-  j << "  \"wall_seconds\": " << FormatDouble(result.wall_seconds) << ",\n";
+  j << "  \"wall_seconds\": " << OutputNumber(result.wall_seconds) << ",\n";
   j << "  \"evaluations_per_second\": "
-    << FormatDouble(result.wall_seconds > 0 ? result.evaluations / result.wall_seconds : 0.0) << ",\n";
+    << OutputNumber(result.wall_seconds > 0 ? result.evaluations / result.wall_seconds : 0.0) << ",\n";
   j << "  \"parameters\": [";
   for (std::size_t i = 0; i < problem_.parameters.size(); ++i) {
     const ProblemParameter& p = problem_.parameters[i];
     j << (i == 0 ? "" : ", ") << "{\"name\": \"" << JsonEscape(p.name) << "\", \"min\": "
-      << FormatDouble(p.min) << ", \"max\": " << FormatDouble(p.max) << ", \"start\": "
-      << FormatDouble(p.start) << "}";
+      << OutputNumber(p.min) << ", \"max\": " << OutputNumber(p.max) << ", \"start\": "
+      << OutputNumber(p.start) << "}";
   }
   j << "],\n";
   if (result.has_best) {
     j << "  \"best\": {\"index\": " << result.best_index << ", \"velocity\": "
-      << FormatDouble(result.best_velocity) << ", \"point\": {";
+      << OutputNumber(result.best_velocity) << ", \"point\": {";
     for (std::size_t i = 0; i < result.best_point.size(); ++i) {
       j << (i == 0 ? "" : ", ") << "\"" << JsonEscape(problem_.parameters[i].name)
-        << "\": " << FormatDouble(result.best_point[i]);
+        << "\": " << OutputNumber(result.best_point[i]);
     }
     j << "}}\n";
   } else {

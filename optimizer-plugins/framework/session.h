@@ -156,8 +156,4 @@ void WriteFileAtomically(const std::string& path, const std::string& text);
 /// Escapes `text` for a JSON string literal (without the quotes).
 std::string JsonEscape(const std::string& text);
 
-/// A finite double as text that reads back exactly ("0" for non-finite,
-/// which callers never pass).
-std::string FormatDouble(double value);
-
 }  // namespace yamor::optimizer

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <thread>
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::optimizer {
