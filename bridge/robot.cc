@@ -447,6 +447,10 @@ void Robot::FireTimers(std::vector<snp::Frame>& events) {
   }
 }
 
+bool IsInactive(const cpg::ModuleParams& module) {
+  return module.amplitude == 0.0 && module.offset == 0.0 && module.speed == 0.0;
+}
+
 std::vector<snp::Frame> ConfigurationFrames(const cpg::RobotConfig& config) {
   std::vector<snp::Frame> frames;
   const Address host = Address::Host();
@@ -483,10 +487,11 @@ std::vector<snp::Frame> ConfigurationFrames(const cpg::RobotConfig& config) {
     }
   }
   for (const cpg::ModuleParams& m : config.modules) {
-    frames.push_back(snp::MakeFrame(host, to_module(m.id),
-                                    snp::Control{.uart = snp::Tristate::kOn,
-                                                 .cpg = snp::Tristate::kOn,
-                                                 .motors = snp::Tristate::kOn}));
+    frames.push_back(snp::MakeFrame(
+        host, to_module(m.id),
+        snp::Control{.uart = snp::Tristate::kOn,
+                     .cpg = snp::Tristate::kOn,
+                     .motors = IsInactive(m) ? snp::Tristate::kOff : snp::Tristate::kOn}));
   }
   return frames;
 }

@@ -154,11 +154,18 @@ class Robot {
   RobotStats stats_;
 };
 
+/// True for one of the thesis's inactive modules: a configured module whose
+/// oscillator is all zero (amplitude, offset and speed 0). It is configured
+/// (it may be the master and relay links) but its servo stays unpowered, a
+/// free hinge, instead of holding 0 against the robot (appendix A.4's wheel).
+bool IsInactive(const cpg::ModuleParams& module);
+
 /// The frames that bring a robot from power-on to running `config`, in the
 /// order a host sends them: bluetooth links in tree order (parent first), then
 /// per module its oscillator, limits, couplings (cleared, then set), and
-/// finally Control(uart, cpg, motors on) to each module. Ids in `config`
-/// are used as they are (no id mapping).
+/// finally Control(uart on, cpg on, motors on — off for an inactive module,
+/// see IsInactive) to each module. Ids in `config` are used as they are (no
+/// id mapping).
 std::vector<snp::Frame> ConfigurationFrames(const cpg::RobotConfig& config);
 
 }  // namespace yamor::bridge

@@ -9,6 +9,7 @@
 
 #include <tinyxml2.h>
 
+#include "common/format.h"
 #include "common/status.h"
 #include "physics/box_overlap.h"
 #include "physics/placement.h"
@@ -25,6 +26,8 @@ constexpr double kClosureAngleTolerance = 0.5 * kPi / 180.0;     // rad
 // that merely touch (connected modules sit 100 µm apart) do not count.
 constexpr double kOverlapTolerance = 5e-4;  // m
 constexpr int kMaxModuleId = 1 << 20;
+// Starting hinge angles stay inside the servo's ±90° stops.
+constexpr double kMaxStartAngleDegrees = 90.0;
 
 [[noreturn]] void Fail(const std::string& message) {
   throw Error(StatusCode::kInvalidArgument, message);
@@ -136,6 +139,8 @@ std::string FormatNumber(double value) {
 
 }  // namespace
 
+double MorphologyModule::StartAngle() const { return angle_degrees * (kPi / 180.0); }
+
 Eigen::Matrix3d RotationFromRollPitchYaw(const Eigen::Vector3d& degrees) {
   const Eigen::Vector3d radians = degrees * (kPi / 180.0);
   return (Eigen::AngleAxisd(radians.z(), Eigen::Vector3d::UnitZ()) *
@@ -187,10 +192,16 @@ Morphology Morphology::Parse(std::string_view xml, std::string_view source) {
     const ElementReader reader(element, where);
     const std::string_view name(element->Name());
     if (name == "module") {
-      reader.CheckAttributes({"id", "free"});
+      reader.CheckAttributes({"id", "free", "angle"});
       MorphologyModule module;
       module.id = reader.RequiredId("id");
       module.free = reader.OptionalBool("free", false);
+      if (const char* angle = element->Attribute("angle")) {
+        if (!ParseDouble(angle, &module.angle_degrees)) {
+          Fail(where + ": module " + std::to_string(module.id) + ": angle=" + Quote(angle) +
+               " is not a number of degrees");
+        }
+      }
       module.line = element->GetLineNum();
       result.modules_.push_back(module);
     } else if (name == "connect") {
@@ -265,6 +276,16 @@ void Morphology::Validate() {
     if (module.id < 0 || module.id > kMaxModuleId) {
       Fail(Where(module.line) + ": module id " + std::to_string(module.id) + " out of range");
     }
+    if (!std::isfinite(module.angle_degrees) ||
+        std::abs(module.angle_degrees) > kMaxStartAngleDegrees) {
+      Fail(Where(module.line) + ": module " + std::to_string(module.id) + ": angle=" +
+           Quote(FormatDouble(module.angle_degrees)) +
+           " is outside the hinge range [-90, 90] degrees");
+    }
+    if (module.free && module.angle_degrees != 0.0) {
+      Fail(Where(module.line) + ": module " + std::to_string(module.id) +
+           " is free: a spare is connected with its servo at 0, so it takes no angle");
+    }
     if (!index_.emplace(module.id, i).second) {
       Fail(Where(module.line) + ": duplicate module id=\"" + std::to_string(module.id) +
            "\" (first declared at line " + std::to_string(modules_[index_[module.id]].line) + ")");
@@ -328,7 +349,8 @@ void Morphology::Validate() {
       const ConnectorId fixed = from_is_current ? c.from_connector : c.to_connector;
       const ConnectorId moving = from_is_current ? c.to_connector : c.from_connector;
       const Eigen::Isometry3d pose =
-          MateBodyPose(body_poses_.at(current), 0.0, fixed, moving, 0.0, c.angle_steps);
+          MateBodyPose(body_poses_.at(current), Module(current).StartAngle(), fixed, moving,
+                       Module(other).StartAngle(), c.angle_steps);
       const auto existing = body_poses_.find(other);
       if (existing == body_poses_.end()) {
         body_poses_[other] = pose;
@@ -355,13 +377,13 @@ void Morphology::Validate() {
     }
   }
 
-  // Overlap test between every pair of placed modules (servos at 0).
+  // Overlap test between every pair of placed modules (servos at their start).
   std::vector<int> placed;
   std::map<int, std::vector<OrientedBox>> boxes;
   for (const MorphologyModule& module : modules_) {
     if (module.free) continue;
     placed.push_back(module.id);
-    boxes[module.id] = ModuleWorldBoxes(body_poses_.at(module.id), 0.0);
+    boxes[module.id] = ModuleWorldBoxes(body_poses_.at(module.id), module.StartAngle());
   }
   for (size_t i = 0; i < placed.size(); ++i) {
     for (size_t j = i + 1; j < placed.size(); ++j) {
@@ -391,8 +413,9 @@ std::string Morphology::ToXml() const {
   }
   out << ">\n";
   for (const MorphologyModule& module : modules_) {
-    out << "  <module id=\"" << module.id << "\"" << (module.free ? " free=\"true\"" : "")
-        << "/>\n";
+    out << "  <module id=\"" << module.id << "\"" << (module.free ? " free=\"true\"" : "");
+    if (module.angle_degrees != 0.0) out << " angle=\"" << FormatDouble(module.angle_degrees) << "\"";
+    out << "/>\n";
   }
   for (const MorphologyConnection& c : connections_) {
     out << "  <connect idfrom=\"" << c.from << "\" connfrom=\"" << ConnectorName(c.from_connector)

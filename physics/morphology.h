@@ -1,8 +1,8 @@
 // The physical graph of a robot: which modules exist and which connector of
 // one is screwed onto which connector of another, at which angle. Immutable
 // and validated on construction; module poses are computed from connector
-// frames with every servo at 0 (thesis 5.4.2). The XML format is documented in
-// docs/module.md.
+// frames with every servo at its starting angle (0 unless the file gives one;
+// thesis 5.4.2 places at 0). The XML format is documented in docs/module.md.
 #pragma once
 
 #include <filesystem>
@@ -22,6 +22,11 @@ struct MorphologyModule {
   int id = 0;         ///< The module's real id (matches the robot configuration).
   bool free = false;  ///< A spare module, not part of the robot until connected.
   int line = 0;       ///< Source line (0 when built in code).
+  /// Starting hinge angle in degrees (XML `angle`), finite and within ±90.
+  double angle_degrees = 0.0;
+
+  /// The starting hinge angle in radians.
+  double StartAngle() const;
 };
 
 /// One connection: connector `from_connector` of module `from` is mated to
@@ -69,7 +74,7 @@ class Morphology {
   /// The module with this id; kNotFound when absent.
   const MorphologyModule& Module(int id) const;
   /// Body pose of a connected module in the robot frame (central module at
-  /// the origin, servos at 0); kNotFound for an unknown id, kFailedPrecondition
+  /// the origin, every servo at its starting angle); kNotFound for an unknown id, kFailedPrecondition
   /// for a free module.
   const Eigen::Isometry3d& BodyPose(int id) const;
 

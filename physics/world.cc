@@ -275,19 +275,24 @@ struct World::Impl {
     std::vector<OrientedBox> boxes;
     for (const ModuleState& m : modules) {
       if (!m.simulated()) continue;
-      const auto module_boxes = ModuleWorldBoxes(morphology.BodyPose(m.id), 0.0);
+      const auto module_boxes =
+          ModuleWorldBoxes(morphology.BodyPose(m.id), morphology.Module(m.id).StartAngle());
       boxes.insert(boxes.end(), module_boxes.begin(), module_boxes.end());
     }
     const Eigen::Vector3d central = morphology.BodyPose(morphology.central()).translation();
     const Eigen::Translation3d shift(-central.x(), -central.y(),
                                      options.drop_gap - physics::LowestPoint(boxes));
     std::vector<std::array<PartMotion, 2>> motion(modules.size());
+    // Every servo starts at its morphology angle and holds it (set-point).
     std::vector<double> servo(modules.size(), 0.0);
     for (size_t i = 0; i < modules.size(); ++i) {
+      const double start = morphology.Module(modules[i].id).StartAngle();
+      modules[i].target = start;
       if (!modules[i].simulated()) continue;
+      servo[i] = start;
       const Eigen::Isometry3d body = shift * morphology.BodyPose(modules[i].id);
       motion[i][0].pose = body;
-      motion[i][1].pose = PartPose(body, Part::kHandle, 0.0);
+      motion[i][1].pose = PartPose(body, Part::kHandle, start);
     }
     Build(motion, servo);
   }

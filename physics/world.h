@@ -75,7 +75,8 @@ struct DivergenceInfo {
 
 /// One robot in its own ODE world. Building a world from a Morphology places
 /// the robot resting on flat ground (lowest point `drop_gap` above z = 0, the
-/// central module above the origin), every servo at 0 with its motor on.
+/// central module above the origin), every servo at its morphology starting
+/// angle (the set-point too) with its motor on.
 /// Thread-safety: not thread-safe; one thread at a time may use a World (it may
 /// change threads between calls). Worlds are independent: different threads may
 /// each run their own World concurrently.

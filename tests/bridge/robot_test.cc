@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <set>
 #include <string>
 
@@ -264,7 +265,9 @@ TEST(BridgeRobotTest, ConfiguredSnakeOscillatesWithinItsLimits) {
   for (const auto& m : config.modules) {
     const ModuleFirmware& fw = robot.Firmware(m.id);
     EXPECT_EQ(fw.amplitude, static_cast<float>(m.amplitude));
-    EXPECT_TRUE(fw.cpg && fw.motors && fw.uart);
+    EXPECT_TRUE(fw.cpg && fw.uart);
+    // The passive head (module 0) is inactive: configured, motor off.
+    EXPECT_EQ(fw.motors, m.id != 0) << m.id;
   }
   std::vector<snp::Frame> events;
   double min_angle = 0, max_angle = 0;
@@ -340,6 +343,59 @@ TEST(BridgeRobotTest, SameSeedSameTrajectory) {
   EXPECT_EQ(a.x(), b.x());
   EXPECT_EQ(a.y(), b.y());
   EXPECT_EQ(a.z(), b.z());
+}
+
+TEST(BridgeRobotTest, InactiveModulesAreConfiguredWithTheirMotorsOff) {
+  const cpg::RobotConfig config = cpg::LoadConfigFile(kSourceDir + "/configs/robots/wheel.xml");
+  std::map<int, snp::Tristate> motors;
+  for (const snp::Frame& f : ConfigurationFrames(config)) {
+    snp::Message m = snp::DecodeMessage(f);
+    if (const auto* c = std::get_if<snp::Control>(&m)) motors[f.destination.id] = c->motors;
+  }
+  // Module 1 (amplitude, offset and speed 0) is the master but inactive.
+  EXPECT_TRUE(IsInactive(config.modules[0]));
+  EXPECT_EQ(motors.at(1), snp::Tristate::kOff);
+  for (int id : {6, 7, 12}) EXPECT_EQ(motors.at(id), snp::Tristate::kOn) << id;
+  cpg::ModuleParams held{.id = 4, .offset = 0.2};  // no oscillation but a set-point
+  EXPECT_FALSE(IsInactive(held));
+
+  Robot robot(physics::Morphology::LoadFile(kSourceDir + "/configs/worlds/wheel.xml"),
+              {.master = 1});
+  Configure(robot, config);
+  EXPECT_TRUE(robot.Firmware(1).cpg);
+  EXPECT_FALSE(robot.Firmware(1).motors);
+  EXPECT_FALSE(robot.world().MotorEnabled(1));
+  EXPECT_TRUE(robot.world().MotorEnabled(6));
+  // 2 and 3 are not in the configuration: never powered.
+  EXPECT_FALSE(robot.world().MotorEnabled(2));
+  EXPECT_FALSE(robot.world().MotorEnabled(3));
+}
+
+TEST(BridgeRobotTest, PoweredModuleWithCpgOffHoldsItsStartingAngle) {
+  const physics::Morphology wheel =
+      physics::Morphology::LoadFile(kSourceDir + "/configs/worlds/wheel.xml");
+  Robot robot(wheel);
+  const std::vector<int> ids = robot.world().ModuleIds();
+  for (int id : ids) {
+    if (id == 1) continue;
+    ASSERT_EQ(SendExpect<snp::ConnectAck>(robot, ToModule(1, snp::ConnectRequest{
+                                                               .child = static_cast<uint8_t>(id)}))
+                  .status,
+              snp::LinkStatus::kUp);
+  }
+  // Every motor on (none oscillating): the hexagon keeps its starting pose
+  // rather than snapping to 0.
+  for (int id : ids) {
+    SendExpect<snp::Ack>(robot, ToModule(id, snp::Control{.motors = snp::Tristate::kOn}));
+  }
+  std::vector<snp::Frame> events;
+  robot.Advance(1.0, events);
+  for (int id : ids) {
+    EXPECT_EQ(robot.world().ServoTarget(id), wheel.Module(id).StartAngle()) << id;
+    EXPECT_NEAR(robot.world().ServoAngle(id), wheel.Module(id).StartAngle(), 0.02) << id;
+  }
+  robot.Reset();
+  EXPECT_EQ(robot.world().ServoTarget(6), wheel.Module(6).StartAngle());
 }
 
 TEST(BridgeRobotTest, ConfigurationFramesLinkParentsFirst) {

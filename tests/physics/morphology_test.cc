@@ -121,6 +121,30 @@ std::vector<BadCase> BadCases() {
        "<connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"rear\" angle=\"0\"/>\n"
        "</morphology>",
        {"test.xml:6", "module id=\"2\" (crossbar)", "overlaps module id=\"1\" (crossbar)"}},
+      {"start_angle_not_number",
+       "<morphology central=\"0\">\n<module id=\"0\" angle=\"x\"/>\n</morphology>",
+       {"test.xml:2", "module 0", "angle=\"x\"", "not a number of degrees"}},
+      {"start_angle_not_finite",
+       "<morphology central=\"0\">\n<module id=\"0\" angle=\"inf\"/>\n</morphology>",
+       {"test.xml:2", "module 0", "angle=\"inf\""}},
+      {"start_angle_beyond_the_stops",
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\" angle=\"-90.5\"/>\n"
+       "</morphology>",
+       {"test.xml:3", "module 1", "angle=\"-90.5\"", "hinge range"}},
+      {"start_angle_on_a_free_module",
+       "<morphology central=\"0\">\n<module id=\"0\"/>\n<module id=\"1\" free=\"true\" "
+       "angle=\"30\"/>\n</morphology>",
+       {"test.xml:3", "module 1", "free"}},
+      {"overlap_at_the_start_angle",
+       // Fine with 0's servo at 0 (1 sticks out in front); with 0's handle
+       // turned up by the starting angle, 1 stands up into 2, which sits on
+       // 0's top face.
+       "<morphology central=\"0\">\n<module id=\"0\" angle=\"-90\"/>\n<module id=\"1\"/>\n"
+       "<module id=\"2\"/>\n"
+       "<connect idfrom=\"1\" connfrom=\"rear\" idto=\"0\" connto=\"front\"/>\n"
+       "<connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"top\"/>\n"
+       "</morphology>",
+       {"test.xml:6", "module id=\"2\"", "overlaps module id=\"1\" (body)"}},
       {"overlap_bodies",
        // A chain that climbs up behind the central module and comes back down
        // onto it: module 4 lands inside module 0.
@@ -144,6 +168,66 @@ TEST(MorphologyTest, ValidationErrorsNameFileLineAndCulprit) {
     for (const std::string& fragment : bad.fragments) {
       EXPECT_THAT(error.what(), HasSubstr(fragment));
     }
+  }
+}
+
+TEST(MorphologyTest, StartAnglesPlaceTheModulesOnBothSidesOfAHinge) {
+  // 1 hangs on 0's handle, 2 carries 0 on its own handle: 0's starting angle
+  // turns 1, 2's turns 2's body relative to 0.
+  const Morphology m = Morphology::Parse(
+      "<morphology central=\"0\">\n"
+      "  <module id=\"0\" angle=\"30\"/>\n"
+      "  <module id=\"1\"/>\n"
+      "  <module id=\"2\" angle=\"-45.5\"/>\n"
+      "  <connect idfrom=\"1\" connfrom=\"rear\" idto=\"0\" connto=\"front\"/>\n"
+      "  <connect idfrom=\"2\" connfrom=\"front\" idto=\"0\" connto=\"rear\"/>\n"
+      "</morphology>\n",
+      "start.xml");
+  EXPECT_EQ(m.Module(0).angle_degrees, 30.0);
+  EXPECT_EQ(m.Module(1).angle_degrees, 0.0);
+  EXPECT_DOUBLE_EQ(m.Module(2).StartAngle(), -45.5 * M_PI / 180);
+  const Eigen::Isometry3d one = MateBodyPose(Eigen::Isometry3d::Identity(), M_PI / 6,
+                                             ConnectorId::kFront, ConnectorId::kRear, 0, 0);
+  EXPECT_TRUE(m.BodyPose(1).isApprox(one, 1e-12));
+  const Eigen::Isometry3d two = MateBodyPose(Eigen::Isometry3d::Identity(), 0, ConnectorId::kRear,
+                                             ConnectorId::kFront, -45.5 * M_PI / 180, 0);
+  EXPECT_TRUE(m.BodyPose(2).isApprox(two, 1e-12));
+  // The handle turned by +30° about +y puts 1 below 0's axis (tip towards -z).
+  EXPECT_NEAR(m.BodyPose(1).translation().z(), -0.5 * (0.045 + 0.035 + 1e-4), 1e-9);
+  // Written back with the angles, read back to the same poses.
+  const std::string xml = m.ToXml();
+  EXPECT_THAT(xml, HasSubstr("<module id=\"0\" angle=\"30\"/>"));
+  EXPECT_THAT(xml, HasSubstr("<module id=\"1\"/>"));
+  EXPECT_THAT(xml, HasSubstr("<module id=\"2\" angle=\"-45.5\"/>"));
+  const Morphology again = Morphology::Parse(xml, "again");
+  for (int id : {0, 1, 2}) {
+    EXPECT_EQ(again.Module(id).angle_degrees, m.Module(id).angle_degrees);
+    EXPECT_TRUE(again.BodyPose(id).isApprox(m.BodyPose(id), 1e-12));
+  }
+}
+
+TEST(MorphologyTest, StartAnglesMustCloseTheLoop) {
+  const Morphology wheel = Morphology::LoadFile(kWorlds + "wheel.xml");
+  std::vector<MorphologyModule> modules = wheel.modules();
+  for (const MorphologyModule& module : modules) EXPECT_NE(module.angle_degrees, 0.0);
+  // One hinge bent 2° further: the hexagon no longer closes.
+  modules.front().angle_degrees += 2.0;
+  try {
+    Morphology::Build(wheel.central(), modules, wheel.connections());
+    FAIL() << "inconsistent loop accepted";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kInvalidArgument);
+    EXPECT_THAT(error.what(), HasSubstr("closes a loop"));
+  }
+  // Build validates the range as Parse does.
+  modules = wheel.modules();
+  modules.back().angle_degrees = 91.0;
+  try {
+    Morphology::Build(wheel.central(), modules, wheel.connections());
+    FAIL() << "angle beyond the stops accepted";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kInvalidArgument);
+    EXPECT_THAT(error.what(), HasSubstr("hinge range"));
   }
 }
 
@@ -206,8 +290,10 @@ TEST(MorphologyTest, ConnectedConnectorsCoincideInEveryWorld) {
     if (entry.path().extension() != ".xml") continue;
     const Morphology m = Morphology::LoadFile(entry.path());
     for (const MorphologyConnection& c : m.connections()) {
-      const WorldConnector a = ModuleConnector(m.BodyPose(c.from), 0, c.from_connector);
-      const WorldConnector b = ModuleConnector(m.BodyPose(c.to), 0, c.to_connector);
+      const WorldConnector a =
+          ModuleConnector(m.BodyPose(c.from), m.Module(c.from).StartAngle(), c.from_connector);
+      const WorldConnector b =
+          ModuleConnector(m.BodyPose(c.to), m.Module(c.to).StartAngle(), c.to_connector);
       SCOPED_TRACE(entry.path().filename().string() + ":" + std::to_string(c.line));
       EXPECT_TRUE(a.normal.isApprox(-b.normal, 1e-9));
       EXPECT_NEAR((a.position - b.position).norm(), module::kConnectionGap, 1e-9);

@@ -84,7 +84,9 @@ TEST(WorldTest, EveryRobotRestsOnTheGround) {
     EXPECT_LT((world.CentralPosition() - before).norm(), 1e-4);
     EXPECT_GT(world.LowestPoint(), -1e-3);
     EXPECT_LT(world.LowestPoint(), 1e-3);
-    for (int id : world.ModuleIds()) EXPECT_NEAR(world.ServoAngle(id), 0, 0.02) << id;
+    for (int id : world.ModuleIds()) {
+      EXPECT_NEAR(world.ServoAngle(id), world.morphology().Module(id).StartAngle(), 0.02) << id;
+    }
   }
   EXPECT_GE(worlds, 6);
 }
@@ -194,6 +196,44 @@ TEST(WorldTest, ResetReplaysBitIdentically) {
   EXPECT_FALSE(fresh.ModuleDefective(6));
   EXPECT_TRUE(fresh.MotorEnabled(7));
   ExpectSameBits(QuadrupedTrace(fresh, 1500), first);
+}
+
+TEST(WorldTest, StartAnglesAreTheInitialPoseAndSetPointAndResetRestoresThem) {
+  World world(Load("wheel"));
+  const Morphology& m = world.morphology();
+  for (int id : world.ModuleIds()) {
+    const double start = m.Module(id).StartAngle();
+    ASSERT_NE(start, 0.0) << id;
+    EXPECT_NEAR(world.ServoAngle(id), start, 1e-9) << id;
+    EXPECT_EQ(world.ServoTarget(id), start) << id;
+    EXPECT_TRUE(world.HandlePose(id).isApprox(
+        PartPose(world.ModulePose(id), Part::kHandle, start), 1e-9))
+        << id;
+  }
+  // Every motor holding its start: the hexagon stands still.
+  world.Step(500);
+  for (int id : world.ModuleIds()) {
+    EXPECT_NEAR(world.ServoAngle(id), m.Module(id).StartAngle(), 0.02) << id;
+  }
+  const std::vector<double> first = [&] {
+    World fresh(Load("wheel"));
+    fresh.Step(200);
+    std::vector<double> angles;
+    for (int id : fresh.ModuleIds()) angles.push_back(fresh.ServoAngle(id));
+    return angles;
+  }();
+  // With the corners free (as the wheel runs), 6 straightens.
+  for (int id : {1, 2, 3}) world.SetMotorEnabled(id, false);
+  world.SetServoTarget(6, 0.0);
+  world.Step(300);
+  EXPECT_GT(std::fabs(world.ServoAngle(6) - m.Module(6).StartAngle()), 0.1);
+  world.Reset();
+  EXPECT_EQ(world.ServoTarget(6), m.Module(6).StartAngle());
+  EXPECT_NEAR(world.ServoAngle(6), m.Module(6).StartAngle(), 1e-9);
+  world.Step(200);
+  std::vector<double> again;
+  for (int id : world.ModuleIds()) again.push_back(world.ServoAngle(id));
+  ExpectSameBits(again, first);
 }
 
 TEST(WorldTest, SameSeedGivesBitIdenticalWorlds) {

@@ -46,6 +46,7 @@ struct NaiveWorld::Impl {
     dBodyID part[2] = {nullptr, nullptr};       // body, handle
     Eigen::Vector3d com[2];                      // centre of mass in the part frame
     dJointID hinge = nullptr;
+    double start = 0;   // servo angle at creation (the hinge's own angle is 0 there)
     double target = 0;
   };
 
@@ -128,8 +129,12 @@ struct NaiveWorld::Impl {
       dJointAttach(m.hinge, m.part[0], m.part[1]);
       dJointSetHingeAnchor(m.hinge, anchor.x(), anchor.y(), anchor.z());
       dJointSetHingeAxis(m.hinge, axis.x(), axis.y(), axis.z());
-      dJointSetHingeParam(m.hinge, dParamLoStop, -physics::module::kServoLimit);
-      dJointSetHingeParam(m.hinge, dParamHiStop, physics::module::kServoLimit);
+      // Parts start at the module's starting angle, as in world.cc: servo
+      // angle = hinge angle + start, stops and set-point shifted alike.
+      m.start = mm.StartAngle();
+      m.target = m.start;
+      dJointSetHingeParam(m.hinge, dParamLoStop, -physics::module::kServoLimit - m.start);
+      dJointSetHingeParam(m.hinge, dParamHiStop, physics::module::kServoLimit - m.start);
       dJointSetHingeParam(m.hinge, dParamFMax, 0);
       ++joints;
       index[m.id] = mi;
@@ -158,7 +163,7 @@ struct NaiveWorld::Impl {
   void ApplyServos() {
     const physics::ServoSpec& s = options.servo;
     for (Module& m : modules) {
-      const double angle = dJointGetHingeAngle(m.hinge);
+      const double angle = dJointGetHingeAngle(m.hinge) + m.start;
       const double velocity = std::clamp(s.gain * (m.target - angle), -s.max_speed, s.max_speed);
       dJointSetHingeParam(m.hinge, dParamVel, velocity);
       dJointSetHingeParam(m.hinge, dParamFMax, s.stall_torque);

@@ -271,9 +271,13 @@ class Exporter {
       // when the module's body is.
       if (GroupOf(mi, Part::kBody) == g_index) axis = -axis;
       const Isometry3d to_local = group.frame.inverse();
+      // The parts are placed at the module's starting angle: MuJoCo's ref
+      // makes that configuration read as that angle (qpos0 = ref).
+      const double start = morphology_.Module(ids_[mi]).StartAngle();
+      const std::string ref = start == 0.0 ? "" : "\" ref=\"" + Num(start);
       out_ += indent + "  <joint name=\"hinge" + std::to_string(ids_[mi]) +
               "\" type=\"hinge\" pos=\"" + Vec(to_local * pivot) + "\" axis=\"" +
-              Vec(to_local.linear() * axis) + "\" range=\"" +
+              Vec(to_local.linear() * axis) + ref + "\" range=\"" +
               Num(-physics::module::kServoLimit) + " " + Num(physics::module::kServoLimit) +
               "\"/>\n";
     }

@@ -208,6 +208,14 @@ TEST(MjcfExportTest, WheelLoopHingeIsLeftOutAndItsSidesDoNotCollide) {
             static_cast<int>(world.ModuleIds().size()));
   EXPECT_NE(xml.find("<exclude"), std::string::npos);
   EXPECT_EQ(xml.find("hinge" + std::to_string(summary.skipped_hinges[0]) + "\""), std::string::npos);
+  // Every wheel hinge starts bent (configs/worlds/wheel.xml): the exported
+  // joints read their starting angles in the initial configuration.
+  int refs = 0;
+  for (size_t at = xml.find(" ref=\""); at != std::string::npos; at = xml.find(" ref=\"", at + 1)) {
+    ++refs;
+  }
+  EXPECT_EQ(refs, summary.hinges);
+  EXPECT_EQ(ExportMjcf(Load("quadruped"), ExportOptions()).find(" ref=\""), std::string::npos);
 }
 
 TEST(MjcfExportTest, BadOptionsAreRejected) {
