@@ -48,6 +48,7 @@ struct NaiveWorld::Impl {
     dJointID hinge = nullptr;
     double start = 0;   // servo angle at creation (the hinge's own angle is 0 there)
     double target = 0;
+    bool motor_on = true;
   };
 
   physics::WorldOptions options;
@@ -163,6 +164,11 @@ struct NaiveWorld::Impl {
   void ApplyServos() {
     const physics::ServoSpec& s = options.servo;
     for (Module& m : modules) {
+      if (!m.motor_on) {  // unpowered: only the gearbox friction resists
+        dJointSetHingeParam(m.hinge, dParamVel, 0);
+        dJointSetHingeParam(m.hinge, dParamFMax, s.limp_friction);
+        continue;
+      }
       const double angle = dJointGetHingeAngle(m.hinge) + m.start;
       const double velocity = std::clamp(s.gain * (m.target - angle), -s.max_speed, s.max_speed);
       dJointSetHingeParam(m.hinge, dParamVel, velocity);
@@ -229,6 +235,14 @@ void NaiveWorld::SetServoTarget(int id, double angle) {
   }
   impl_->modules[it->second].target =
       std::clamp(angle, -physics::module::kServoLimit, physics::module::kServoLimit);
+}
+
+void NaiveWorld::SetMotorEnabled(int id, bool enabled) {
+  const auto it = impl_->index.find(id);
+  if (it == impl_->index.end()) {
+    throw Error(StatusCode::kNotFound, "no module " + std::to_string(id) + " in the naive world");
+  }
+  impl_->modules[it->second].motor_on = enabled;
 }
 
 void NaiveWorld::Step() { impl_->Step(); }

@@ -27,6 +27,9 @@ class NaiveWorld {
 
   /// Servo set-point (rad), clamped to ±90° like physics::World.
   void SetServoTarget(int id, double angle);
+  /// Powers a servo on or off; off leaves only the gearbox's back-drive
+  /// friction, like physics::World::SetMotorEnabled.
+  void SetMotorEnabled(int id, bool enabled);
   /// One fixed step: servos, collision, dWorldStep, divergence check.
   void Step();
   /// World position of the central module's body frame, m.

@@ -31,7 +31,8 @@
 // --gait=FILE (robot config of the quadruped).
 // Export mode, for the MuJoCo side (tools/bench/physics_compare.py):
 // --export=quadruped|snake<N> --export_dir=DIR [--export_duration=S] writes
-// DIR/<robot>.world.xml (the morphology) and DIR/<robot>.setpoints.csv (the
+// DIR/<robot>.world.xml (the morphology), DIR/<robot>.unpowered (comma-separated
+// ids of the inactive modules, whose servos stay off) and DIR/<robot>.setpoints.csv (the
 // set-point of every servo for each step k = 1..N at --step, exactly what the
 // naive world is fed) and runs no benchmark.
 #include <benchmark/benchmark.h>
@@ -186,7 +187,8 @@ RobotConfig SnakeConfig(int n) {
 
 // The CPG exactly as bridge::Robot runs it: parameters rounded to the
 // firmware's floats, modules and couplings in id order, phases seeded, one
-// RK4 step before each world step.
+// RK4 step before each world step; inactive modules (bridge::IsInactive)
+// unpowered, as ConfigurationFrames leaves them.
 class Gait {
  public:
   explicit Gait(const RobotConfig& config) {
@@ -194,6 +196,7 @@ class Gait {
     std::map<int, const yamor::cpg::ModuleParams*> by_id;
     for (const auto& m : config.modules) by_id[m.id] = &m;
     for (const auto& [id, m] : by_id) {
+      if (yamor::bridge::IsInactive(*m)) inactive_.push_back(id);
       firmware.modules.push_back({.id = id,
                                   .amplitude = static_cast<float>(m->amplitude),
                                   .offset = static_cast<float>(m->offset),
@@ -213,6 +216,15 @@ class Gait {
     state_ = network_.InitialState(kPhaseSeed);
   }
 
+  // Switches the inactive modules' servos off in `world` (once, at the start).
+  template <typename W>
+  void PowerDownInactive(W& world) const {
+    for (int id : inactive_) world.SetMotorEnabled(id, false);
+  }
+
+  // Ids of the inactive modules.
+  const std::vector<int>& inactive() const { return inactive_; }
+
   // Advances the oscillators by dt and hands every set-point to `world`.
   template <typename W>
   void Drive(W& world, double dt) {
@@ -227,6 +239,7 @@ class Gait {
   yamor::cpg::Network network_;
   yamor::cpg::NetworkState state_;
   std::vector<std::optional<double>> set_points_;
+  std::vector<int> inactive_;
 };
 
 // ---------------------------------------------------------- evaluations --
@@ -293,6 +306,7 @@ Evaluation EvaluateNaive(const Morphology& morphology, const RobotConfig& config
   options.time_step = step;
   NaiveWorld world(morphology, options);
   Gait gait(config);
+  gait.PowerDownInactive(world);
   auto advance = [&](double seconds) {
     for (std::int64_t i = StepsFor(seconds, step); i > 0 && !world.Diverged(); --i) {
       gait.Drive(world, step);
@@ -348,6 +362,7 @@ template <typename W>
 struct SnakeRun {
   SnakeRun(int n, const WorldOptions& options, double warmup)
       : world(SnakeMorphology(n), options), gait(SnakeConfig(n)), step(options.time_step) {
+    gait.PowerDownInactive(world);
     for (std::int64_t i = StepsFor(warmup, step); i > 0 && !world.Diverged(); --i) Step();
   }
   void Step() {
@@ -421,6 +436,12 @@ void Export(const Settings& s) {
     void SetServoTarget(int id, double angle) { targets[id] = angle; }
   } recorder;
   Gait gait(config);
+  std::ofstream unpowered(dir / (s.export_robot + ".unpowered"));
+  for (size_t i = 0; i < gait.inactive().size(); ++i) {
+    unpowered << (i > 0 ? "," : "") << gait.inactive()[i];
+  }
+  unpowered << "\n";
+  unpowered.close();
   std::ofstream csv(dir / (s.export_robot + ".setpoints.csv"));
   const std::int64_t steps = StepsFor(s.export_duration, s.step);
   char buffer[64];
@@ -440,7 +461,7 @@ void Export(const Settings& s) {
   }
   world.close();
   csv.close();
-  if (!world || !csv) {
+  if (!world || !csv || !unpowered) {
     throw yamor::Error(yamor::StatusCode::kDataLoss, "writing to " + dir.string() + " failed");
   }
 }

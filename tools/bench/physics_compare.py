@@ -68,8 +68,10 @@ def mujoco_run(args, tmp, robot, h, repeats, duration=None, skip=0.0, warmup=8.0
         cmd.append(f"--export_duration={duration}")
     run(cmd)
     model = tmp / f"{tag}.mjcf.xml"
+    unpowered = (tmp / f"{robot}.unpowered").read_text().strip()
     run([args.exporter, "--world", tmp / f"{robot}.world.xml", "--out", model,
-         "--time-step", repr(h), "--log-level", "warn"])
+         "--time-step", repr(h), "--log-level", "warn"]
+        + (["--unpowered", unpowered] if unpowered else []))
     out = tmp / f"{tag}.mujoco.json"
     run([args.python, ROOT / "tools/mjcf/mujoco_eval.py", "--model", model,
          "--setpoints", tmp / f"{robot}.setpoints.csv", "--repeats", str(repeats),

@@ -6,6 +6,7 @@
 #include <deque>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <string_view>
 
 #include "common/status.h"
@@ -98,6 +99,14 @@ class Exporter {
       body_pose_.push_back(world_.ModulePose(m.id));
       handle_pose_.push_back(world_.HandlePose(m.id));
     }
+    for (int id : options.unpowered_modules) {
+      if (index_.count(id) == 0) {
+        throw Error(StatusCode::kInvalidArgument,
+                    "unpowered module " + std::to_string(id) + " is not a connected module of " +
+                        morphology.source());
+      }
+      unpowered_.insert(id);
+    }
     BuildGroups();
     BuildTree();
   }
@@ -139,7 +148,7 @@ class Exporter {
     const double kv = options_.actuator_damping;
     for (size_t g_index = 0; g_index < groups_.size(); ++g_index) {
       const int mi = groups_[g_index].joint_module;
-      if (mi < 0) continue;
+      if (mi < 0 || unpowered_.count(ids_[static_cast<size_t>(mi)]) != 0) continue;
       const std::string id = std::to_string(ids_[static_cast<size_t>(mi)]);
       out_ += "    <position name=\"servo" + id + "\" joint=\"hinge" + id + "\" kp=\"" +
               Num(servo.gain * kv) + "\" kv=\"" + Num(kv) + "\" forcerange=\"" +
@@ -275,9 +284,14 @@ class Exporter {
       // makes that configuration read as that angle (qpos0 = ref).
       const double start = morphology_.Module(ids_[mi]).StartAngle();
       const std::string ref = start == 0.0 ? "" : "\" ref=\"" + Num(start);
+      // An unpowered servo is back-driven against the gearbox's friction only.
+      const std::string friction =
+          unpowered_.count(ids_[mi]) == 0
+              ? ""
+              : "\" frictionloss=\"" + Num(options_.world.servo.limp_friction);
       out_ += indent + "  <joint name=\"hinge" + std::to_string(ids_[mi]) +
               "\" type=\"hinge\" pos=\"" + Vec(to_local * pivot) + "\" axis=\"" +
-              Vec(to_local.linear() * axis) + ref + "\" range=\"" +
+              Vec(to_local.linear() * axis) + ref + friction + "\" range=\"" +
               Num(-physics::module::kServoLimit) + " " + Num(physics::module::kServoLimit) +
               "\"/>\n";
     }
@@ -304,6 +318,7 @@ class Exporter {
   ExportOptions options_;
   physics::World world_;  // places the robot exactly as the simulation does
   std::map<int, size_t> index_;
+  std::set<int> unpowered_;  // ids of modules whose servo is unpowered
   std::vector<int> ids_;
   std::vector<Isometry3d> body_pose_;
   std::vector<Isometry3d> handle_pose_;

@@ -37,6 +37,11 @@ struct ExportOptions {
   /// to the step (2 steps, MuJoCo's stiffest) makes the gait step-dependent.
   double contact_time_constant = 0.02;
   std::string model_name;  ///< <mujoco model=...>; default: the morphology's source stem.
+  /// Modules whose servo is unpowered (the configuration's inactive modules,
+  /// bridge::IsInactive): their hinge gets no actuator, only the gearbox's
+  /// back-drive friction (servo.limp_friction) as MuJoCo frictionloss, as
+  /// physics::World models a motor that is off. Ids must be in the morphology.
+  std::vector<int> unpowered_modules;
 };
 
 /// What the export produced. Thread-safety: plain value.

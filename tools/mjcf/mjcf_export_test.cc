@@ -218,6 +218,31 @@ TEST(MjcfExportTest, WheelLoopHingeIsLeftOutAndItsSidesDoNotCollide) {
   EXPECT_EQ(ExportMjcf(Load("quadruped"), ExportOptions()).find(" ref=\""), std::string::npos);
 }
 
+TEST(MjcfExportTest, UnpoweredServosGetGearboxFrictionAndNoActuator) {
+  ExportOptions options;
+  options.unpowered_modules = {4};
+  const std::string xml = ExportMjcf(Load("quadruped"), options);
+  const size_t hinge = xml.find("<joint name=\"hinge4\"");
+  ASSERT_NE(hinge, std::string::npos);
+  const std::string joint = xml.substr(hinge, xml.find('>', hinge) - hinge);
+  EXPECT_NE(joint.find(" frictionloss=\"0.002\""), std::string::npos) << joint;
+  EXPECT_EQ(xml.find("joint=\"hinge4\""), std::string::npos);
+  EXPECT_NE(xml.find("joint=\"hinge0\""), std::string::npos);
+  EXPECT_EQ(xml.find("frictionloss"), xml.rfind("frictionloss")) << "only module 4 is unpowered";
+  // Powered by default.
+  EXPECT_NE(ExportMjcf(Load("quadruped"), ExportOptions()).find("joint=\"hinge4\""),
+            std::string::npos);
+
+  options.unpowered_modules = {99};
+  try {
+    ExportMjcf(Load("quadruped"), options);
+    FAIL() << "an unknown unpowered module was accepted";
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(std::string(error.what()).find("99"), std::string::npos) << error.what();
+  }
+}
+
 TEST(MjcfExportTest, BadOptionsAreRejected) {
   ExportOptions options;
   options.actuator_damping = 0;

@@ -2,7 +2,7 @@
 //
 //   yamor-mjcf-export --world configs/worlds/quadruped.xml --out quadruped.mjcf.xml
 //                     [--time-step 0.001] [--actuator-damping 1.0]
-//                     [--contact-time-constant 0.02]
+//                     [--contact-time-constant 0.02] [--unpowered 4,0]
 //
 // See tools/mjcf/mjcf_export.h for the mapping and docs/benchmarks.md for how
 // the benchmark uses it.
@@ -35,6 +35,9 @@ int main(int argc, char** argv) {
   app.add_option("--contact-time-constant", options.contact_time_constant,
                  "MuJoCo contact solref time constant [s]")
       ->capture_default_str();
+  app.add_option("--unpowered", options.unpowered_modules,
+                 "ids of modules whose servo is unpowered (no actuator; gearbox friction only)")
+      ->delimiter(',');
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
