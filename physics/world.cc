@@ -725,6 +725,9 @@ struct World::Impl {
     connection.angle_steps = steps_normalised;
     connections.push_back(connection);
     modules[si].presence = ModulePresence::kLoose;  // simulated from now on
+    // Placed at servo 0, it holds 0 until told otherwise: a set-point left
+    // from before it was put away would swing it round on arrival.
+    modules[si].target = 0.0;
     UpdatePresence();
     Rebuild(motion, servo);
     Log().info("connected module {} ({}) to module {} ({}) at {} deg{}", from,

@@ -121,8 +121,8 @@ class World {
   /// Connects module `from` (put away or loose, with no links) by connector
   /// `from_connector` onto `to_connector` of robot module `to`, the norths
   /// `angle_steps`·15° apart. The world is frozen meanwhile: the module is
-  /// placed exactly on the connector as it is now (its own servo at 0) and
-  /// joined in the same instant. When only the ground is in the way the robot
+  /// placed exactly on the connector as it is now (its own servo and set-point
+  /// at 0) and joined in the same instant. When only the ground is in the way the robot
   /// is lifted first. Errors: kNotFound unknown module, kInvalidArgument
   /// self-connection, kFailedPrecondition connector in use, module in the robot
   /// or still linked, no room, or a diverged world.

@@ -159,14 +159,18 @@ TEST(ReconfigurationTest, DisconnectPutsAwayOrDrops) {
   EXPECT_EQ(world.Presence(8), ModulePresence::kLoose);
   EXPECT_FALSE(world.IsConnected(8));
   EXPECT_NEAR(world.TotalMass(), 8 * ModuleMass(), 1e-12);
+  world.SetServoTarget(8, -0.9);
   world.Step(1000);
   ASSERT_FALSE(world.Diverged());
   EXPECT_LT(world.ModulePose(3).translation().z(), 0.1);
-  // Loose and put-away single modules can be connected again.
+  // Loose and put-away single modules can be connected again, placed and
+  // holding at servo 0 whatever their set-point was before.
   world.Connect(8, ConnectorId::kFront, 6, ConnectorId::kRear, 0);
   world.Connect(7, ConnectorId::kFront, 2, ConnectorId::kRear, 0);
   EXPECT_TRUE(world.IsConnected(7));
   EXPECT_TRUE(world.IsConnected(8));
+  EXPECT_EQ(world.ServoTarget(8), 0.0);
+  EXPECT_EQ(world.ServoTarget(7), 0.0);
   world.Step(500);
   EXPECT_FALSE(world.Diverged());
 
