@@ -6,6 +6,8 @@
 # oscillator-steps/s, one RK4 step of every oscillator per iteration).
 # Programs listed in `plain_programs` are not Google Benchmark binaries: each
 # runs once (it repeats internally) and its own table is printed after ours.
+# Last, tools/bench/physics_compare.py prints the simulation comparison with
+# MuJoCo (when the venv has mujoco).
 set -euo pipefail
 plain_programs=" host_bench pool_bench "
 if [ $# -lt 1 ]; then echo "usage: $0 BUILD_DIR [extra benchmark flags]" >&2; exit 2; fi
@@ -92,3 +94,14 @@ for output in "${plain_outputs[@]}"; do
   echo
   cat "$output"
 done
+
+# Issue 3's side-by-side simulation figures (yamor vs naive ODE vs MuJoCo,
+# step sweep, snakes) need the MJCF exporter and `mujoco` in the venv.
+if [ -x "$build/tools/mjcf/yamor-mjcf-export" ] && "$py" -c "import mujoco" 2>/dev/null; then
+  echo
+  echo "bench: physics_compare.py (yamor vs naive ODE vs MuJoCo, 2 ms)" >&2
+  "$py" "$root/tools/bench/physics_compare.py" "$build" --step 0.002 \
+    --markdown "$out_dir/physics_compare.md"
+else
+  echo "bench: skipping physics_compare.py (needs $build/tools/mjcf/yamor-mjcf-export and mujoco)" >&2
+fi
