@@ -710,6 +710,14 @@ void RobotDriver::SendControlMessage(const ControlMessage& message) {
       Log().info("driver: motor-on not forwarded to module {} (motor defect)", id);
       control.motors = snp::Tristate::kUnchanged;
     }
+    // "All" means the robot as configured: an inactive module's servo stays
+    // unpowered, as Evaluate and ConfigurationFrames leave it; naming the
+    // module powers it.
+    if (message.all && control.motors == snp::Tristate::kOn &&
+        bridge::IsInactive(*config_.FindModule(id))) {
+      Log().debug("driver: motor-on for all skips inactive module {}", id);
+      control.motors = snp::Tristate::kUnchanged;
+    }
     if (control == snp::Control{}) continue;  // nothing left to change
     ModuleCallLocked(id, control, snp::MessageType::kAck);
   }

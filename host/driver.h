@@ -87,7 +87,9 @@ struct ControlMessage {
   snp::Tristate cpg = snp::Tristate::kUnchanged;     ///< Oscillator.
   snp::Tristate motors = snp::Tristate::kUnchanged;  ///< Servo power.
   std::vector<int> module_ids;  ///< Targets (real ids), used when `all` is false.
-  bool all = false;             ///< Every module of the configuration.
+  /// Every module of the configuration; motor-on then skips inactive modules
+  /// (all-zero oscillator, bridge::IsInactive), which stay unpowered unless named.
+  bool all = false;
 };
 
 /// A pose of the central module.

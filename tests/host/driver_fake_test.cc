@@ -235,7 +235,16 @@ TEST_F(DriverFakeTest, ControlMessageCarriesTheTristates) {
   fake->sent.clear();
   const snp::Control all_on{Tristate::kOn, Tristate::kOn, Tristate::kOn};
   driver_->SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
-  expected = {ToModule(0, all_on), ToModule(1, all_on), ToModule(2, all_on), ToModule(13, all_on)};
+  // Module 0 is inactive (all-zero oscillator): "all" leaves its motor alone.
+  const snp::Control no_motor{.uart = Tristate::kOn, .cpg = Tristate::kOn};
+  expected = {ToModule(0, no_motor), ToModule(1, all_on), ToModule(2, all_on),
+              ToModule(13, all_on)};
+  EXPECT_EQ(fake->sent, expected);
+
+  // Named, it is powered.
+  fake->sent.clear();
+  driver_->SendControlMessage(ControlMessage{.motors = Tristate::kOn, .module_ids = {0}});
+  expected = {ToModule(0, snp::Control{.motors = Tristate::kOn})};
   EXPECT_EQ(fake->sent, expected);
 }
 
@@ -250,8 +259,8 @@ TEST_F(DriverFakeTest, ADefectMotorNeverGetsMotorOn) {
   driver_->SendControlMessage(
       ControlMessage{Tristate::kUnchanged, Tristate::kOn, Tristate::kOn, {}, true});
   const snp::Control on{.cpg = Tristate::kOn, .motors = Tristate::kOn};
-  expected = {ToModule(0, on), ToModule(1, on), ToModule(2, snp::Control{.cpg = Tristate::kOn}),
-              ToModule(3, on)};
+  expected = {ToModule(0, snp::Control{.cpg = Tristate::kOn}),  // inactive
+              ToModule(1, on), ToModule(2, snp::Control{.cpg = Tristate::kOn}), ToModule(3, on)};
   EXPECT_EQ(fake->sent, expected);
 
   fake->sent.clear();

@@ -187,6 +187,12 @@ TEST(DriverSimTest, FaultsAndGroundReachTheWorld) {
   driver.ConnectRobot(0.0, false, nullptr);
   driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
   EXPECT_TRUE(world.MotorEnabled(2));
+  // The passive centre 4 is inactive (all-zero oscillator): "all" leaves its
+  // servo unpowered; naming it powers it.
+  EXPECT_FALSE(world.MotorEnabled(4));
+  EXPECT_FALSE(robot.Firmware(4).motors);
+  driver.SendControlMessage(ControlMessage{.motors = Tristate::kOn, .module_ids = {4}});
+  EXPECT_TRUE(world.MotorEnabled(4));
   driver.SetMotorDefect(2, MotorDefect::kLimp);
   EXPECT_EQ(world.GetMotorFault(2), physics::MotorFault::kLimp);
   EXPECT_FALSE(world.MotorEnabled(2)) << "the defect motor was switched off over SNP";
