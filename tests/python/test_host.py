@@ -290,3 +290,17 @@ def test_transformation_script(fresh, tmp_path):
                       '</script>')
     fresh.run_script_file(script)
     assert 'idfrom="8"' in fresh.morphology().xml
+
+
+def test_thesis_session_rolls_the_wheel(fresh):
+    # Appendix A.4 through the interactive path: "everything on" powers the
+    # three active modules only; the inactive corners stay free, so it rolls.
+    fresh.set_free_run(0)
+    fresh.open_simulation(world="wheel")
+    start = fresh.position()
+    fresh.connect()
+    fresh.control(uart=True, cpg=True, motors=True)
+    fresh.sleep(20)
+    travelled = planar_distance(start, fresh.position())
+    assert travelled > 1.0, f"the wheel did not roll: {travelled:.3f} m in 20 s"
+    fresh.open_simulation(world="quadruped")  # back to the default robot
