@@ -161,6 +161,15 @@ struct NaiveWorld::Impl {
     dWorldDestroy(world);
   }
 
+  // The module with real id `id`; kNotFound when absent.
+  Module& ModuleOf(int id) {
+    const auto it = index.find(id);
+    if (it == index.end()) {
+      throw Error(StatusCode::kNotFound, "no module " + std::to_string(id) + " in the naive world");
+    }
+    return modules[it->second];
+  }
+
   void ApplyServos() {
     const physics::ServoSpec& s = options.servo;
     for (Module& m : modules) {
@@ -229,21 +238,11 @@ NaiveWorld::NaiveWorld(const physics::Morphology& morphology, const physics::Wor
 NaiveWorld::~NaiveWorld() = default;
 
 void NaiveWorld::SetServoTarget(int id, double angle) {
-  const auto it = impl_->index.find(id);
-  if (it == impl_->index.end()) {
-    throw Error(StatusCode::kNotFound, "no module " + std::to_string(id) + " in the naive world");
-  }
-  impl_->modules[it->second].target =
+  impl_->ModuleOf(id).target =
       std::clamp(angle, -physics::module::kServoLimit, physics::module::kServoLimit);
 }
 
-void NaiveWorld::SetMotorEnabled(int id, bool enabled) {
-  const auto it = impl_->index.find(id);
-  if (it == impl_->index.end()) {
-    throw Error(StatusCode::kNotFound, "no module " + std::to_string(id) + " in the naive world");
-  }
-  impl_->modules[it->second].motor_on = enabled;
-}
+void NaiveWorld::SetMotorEnabled(int id, bool enabled) { impl_->ModuleOf(id).motor_on = enabled; }
 
 void NaiveWorld::Step() { impl_->Step(); }
 
