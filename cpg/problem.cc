@@ -1,0 +1,797 @@
+#include "cpg/problem.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <map>
+#include <numbers>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "common/format.h"
+#include "common/status.h"
+#include "cpg/config_xml.h"
+
+namespace yamor::cpg {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+std::string Id(ModuleId id) { return std::to_string(id); }
+std::string PhaseName(ModuleId from, ModuleId to) { return "phase." + Id(from) + "." + Id(to); }
+std::string EdgeName(const NetworkEdge& e) { return Id(e.u) + "-" + Id(e.v); }
+
+// Where an edge's phase comes from: x_e = sign·y_class + pi·π.
+struct EdgeTie {
+  int cls = 0;
+  int sign = 1;
+  int pi = 0;  // 0 or 1
+};
+
+// A linear relation over class variables: Σ coef·y + pi·π (pi mod 2).
+struct Row {
+  std::map<int, int> coef;
+  int pi = 0;
+
+  void Add(int cls, int a) {
+    if (a == 0) return;
+    if ((coef[cls] += a) == 0) coef.erase(cls);
+  }
+  void AddRow(const Row& other, int factor) {
+    for (const auto& [c, a] : other.coef) Add(c, factor * a);
+    pi = ((pi + factor * other.pi) % 2 + 2) % 2;
+  }
+};
+
+// Renumbers classes 0..K-1 and makes each class's smallest edge its
+// representative (sign +1, pi 0).
+void Normalise(std::vector<EdgeTie>& ties) {
+  std::map<int, int> rep;  // old class -> representative edge
+  for (int e = 0; e < static_cast<int>(ties.size()); ++e) rep.try_emplace(ties[e].cls, e);
+  std::map<int, int> renumber;
+  for (int e = 0; e < static_cast<int>(ties.size()); ++e) {
+    if (rep[ties[e].cls] == e) renumber[ties[e].cls] = static_cast<int>(renumber.size());
+  }
+  std::vector<EdgeTie> out(ties.size());
+  for (int e = 0; e < static_cast<int>(ties.size()); ++e) {
+    const EdgeTie& r = ties[rep[ties[e].cls]];
+    out[e] = {.cls = renumber[ties[e].cls], .sign = ties[e].sign * r.sign,
+              .pi = (ties[e].pi + r.pi) % 2};
+  }
+  ties = std::move(out);
+}
+
+struct PhaseSolution {
+  std::vector<EdgeTie> ties;         // final classes
+  std::vector<int> free_classes;     // in class order
+  std::map<int, Row> pivots;         // class -> expression over free classes
+  std::vector<std::string> loops;
+  std::vector<std::string> untied;   // classes split apart, with the reason
+};
+
+PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vector<NetworkEdge>& edges,
+                          std::vector<EdgeTie> ties, const std::set<int>& keep_free) {
+  const int m = static_cast<int>(edges.size());
+  PhaseSolution sol;
+  // Spanning tree: keep-free edges first, then in (u, v) order.
+  std::map<ModuleId, ModuleId> parent;
+  for (ModuleId v : vertices) parent[v] = v;
+  auto root = [&](ModuleId v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  std::vector<int> order(m);
+  for (int e = 0; e < m; ++e) order[e] = e;
+  std::stable_partition(order.begin(), order.end(), [&](int e) { return keep_free.count(e) > 0; });
+  std::vector<bool> in_tree(m, false);
+  std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> tree_adj;
+  for (int e : order) {
+    const ModuleId a = root(edges[e].u), b = root(edges[e].v);
+    if (a == b) {
+      if (keep_free.count(e)) {
+        std::string names;
+        for (int k : keep_free) {
+          if (!names.empty()) names += ", ";
+          names += EdgeName(edges[k]);
+        }
+        throw Error(StatusCode::kInvalidArgument,
+                    "keep-free couplings " + names + " close a loop (" + EdgeName(edges[e]) +
+                        " closes it): every loop's phases must sum to a multiple of 2pi, so one "
+                        "of them has to follow from the others");
+      }
+      continue;
+    }
+    parent[a] = b;
+    in_tree[e] = true;
+    tree_adj[edges[e].u].push_back({edges[e].v, e});
+    tree_adj[edges[e].v].push_back({edges[e].u, e});
+  }
+  // Tree parents by BFS from the first vertex.
+  std::map<ModuleId, std::pair<ModuleId, int>> up;  // vertex -> (parent, edge)
+  std::map<ModuleId, int> depth;
+  if (!vertices.empty()) {
+    std::deque<ModuleId> queue{vertices.front()};
+    depth[vertices.front()] = 0;
+    while (!queue.empty()) {
+      const ModuleId at = queue.front();
+      queue.pop_front();
+      for (const auto& [next, e] : tree_adj[at]) {
+        if (depth.count(next)) continue;
+        depth[next] = depth[at] + 1;
+        up[next] = {at, e};
+        queue.push_back(next);
+      }
+    }
+  }
+  // Fundamental cycles: u -> v over the non-tree edge, back to u in the tree.
+  struct Cycle {
+    std::vector<std::pair<int, int>> terms;  // (edge, +1 small->large / -1)
+    std::string text;
+  };
+  std::vector<Cycle> cycles;
+  for (int f = 0; f < m; ++f) {
+    if (in_tree[f]) continue;
+    Cycle c;
+    c.terms.push_back({f, 1});
+    // Path v -> u through the tree: climb both to their common ancestor.
+    ModuleId a = edges[f].v, b = edges[f].u;
+    std::vector<ModuleId> from_a{a}, from_b{b};
+    std::vector<std::pair<int, int>> tail;  // terms from the b side, reversed later
+    while (a != b) {
+      if (depth[a] >= depth[b]) {
+        const auto [p, e] = up[a];
+        c.terms.push_back({e, a < p ? 1 : -1});
+        a = p;
+        from_a.push_back(a);
+      } else {
+        const auto [p, e] = up[b];
+        tail.push_back({e, p < b ? 1 : -1});  // traversed p -> b
+        b = p;
+        from_b.push_back(b);
+      }
+    }
+    c.terms.insert(c.terms.end(), tail.rbegin(), tail.rend());
+    std::string text = Id(edges[f].u);
+    for (ModuleId v : from_a) text += "-" + Id(v);
+    for (auto it = from_b.rbegin() + 1; it != from_b.rend(); ++it) text += "-" + Id(*it);
+    c.text = text;
+    cycles.push_back(std::move(c));
+  }
+  for (const Cycle& c : cycles) sol.loops.push_back(c.text);
+
+  auto class_size = [&](int cls) {
+    return std::count_if(ties.begin(), ties.end(), [&](const EdgeTie& t) { return t.cls == cls; });
+  };
+  auto split = [&](const std::set<int>& classes, const std::string& why) {
+    int next = 0;
+    for (const EdgeTie& t : ties) next = std::max(next, t.cls + 1);
+    for (int cls : classes) {
+      if (class_size(cls) < 2) continue;
+      std::string names;
+      for (int e = 0; e < m; ++e) {
+        if (ties[e].cls != cls) continue;
+        if (!names.empty()) names += ' ';
+        names += EdgeName(edges[e]);
+        ties[e] = {.cls = next++, .sign = 1, .pi = 0};
+      }
+      sol.untied.push_back("couplings " + names + " are symmetric but not tied: " + why);
+    }
+    Normalise(ties);
+  };
+
+  for (;;) {
+    const int classes = [&] {
+      int k = 0;
+      for (const EdgeTie& t : ties) k = std::max(k, t.cls + 1);
+      return k;
+    }();
+    std::vector<bool> tree_class(classes, false), keep_class(classes, false);
+    for (int e = 0; e < m; ++e) {
+      if (in_tree[e]) tree_class[ties[e].cls] = true;
+      if (keep_free.count(e)) keep_class[ties[e].cls] = true;
+    }
+    std::map<int, Row> pivots;
+    std::map<int, std::set<int>> pivot_row_classes;
+    std::optional<std::pair<std::set<int>, std::string>> failure;
+    for (const Cycle& c : cycles) {
+      Row row;
+      std::set<int> row_classes;
+      for (const auto& [e, orient] : c.terms) {
+        row.Add(ties[e].cls, orient * ties[e].sign);
+        row.pi = (row.pi + ties[e].pi) % 2;
+        row_classes.insert(ties[e].cls);
+      }
+      Row reduced;
+      reduced.pi = row.pi;
+      for (const auto& [cls, a] : row.coef) {
+        auto p = pivots.find(cls);
+        if (p == pivots.end()) {
+          reduced.Add(cls, a);
+        } else {
+          reduced.AddRow(p->second, a);
+        }
+      }
+      if (reduced.coef.empty()) {
+        if (reduced.pi != 0) {
+          failure = {row_classes, "tied, the loop " + c.text + " could not close"};
+          break;
+        }
+        continue;  // a loop the others already close
+      }
+      int best = -1;
+      for (const auto& [cls, a] : reduced.coef) {
+        if (std::abs(a) != 1 || keep_class[cls]) continue;
+        if (best < 0) {
+          best = cls;
+          continue;
+        }
+        // Prefer constraining non-tree, small, late classes.
+        auto score = [&](int k) { return std::tuple{tree_class[k], class_size(k), -k}; };
+        if (score(cls) < score(best)) best = cls;
+      }
+      if (best < 0) {
+        failure = {row_classes, "tied, the loop " + c.text + " would fix their phase to a few values"};
+        break;
+      }
+      const int a = reduced.coef.at(best);
+      Row expr;  // y_best = -a·(reduced - a·y_best)
+      for (const auto& [cls, b] : reduced.coef) {
+        if (cls != best) expr.Add(cls, -a * b);
+      }
+      expr.pi = reduced.pi;
+      for (auto& [cls, other] : pivots) {
+        auto it = other.coef.find(best);
+        if (it == other.coef.end()) continue;
+        const int factor = it->second;
+        other.coef.erase(it);
+        other.AddRow(expr, factor);
+      }
+      pivots[best] = expr;
+      pivot_row_classes[best] = row_classes;
+    }
+    if (!failure) {
+      for (const auto& [cls, expr] : pivots) {
+        if (expr.coef.empty()) {
+          failure = {pivot_row_classes[cls], "tied, a loop would fix a phase"};
+          break;
+        }
+      }
+    }
+    if (failure) {
+      bool any = false;
+      for (int cls : failure->first) any = any || class_size(cls) > 1;
+      YAMOR_CHECK(any, "an untied phase system must be solvable");
+      split(failure->first, failure->second);
+      continue;
+    }
+    sol.ties = ties;
+    sol.pivots = pivots;
+    for (int cls = 0; cls < classes; ++cls) {
+      if (!pivots.count(cls)) sol.free_classes.push_back(cls);
+    }
+    return sol;
+  }
+}
+
+// Edge names of a solved system: class -> "phase.u.v" of its representative.
+std::vector<std::string> ClassNames(const PhaseSolution& sol, const std::vector<NetworkEdge>& edges) {
+  std::vector<std::string> names;
+  for (int e = 0; e < static_cast<int>(edges.size()); ++e) {
+    const int cls = sol.ties[e].cls;
+    if (cls >= static_cast<int>(names.size())) names.resize(cls + 1);
+    if (names[cls].empty()) names[cls] = PhaseName(edges[e].u, edges[e].v);
+  }
+  return names;
+}
+
+std::string Term(int coef, const std::string& name, bool first) {
+  std::string s;
+  if (coef < 0) {
+    s = first ? "-" : " - ";
+  } else if (!first) {
+    s = " + ";
+  }
+  const int a = std::abs(coef);
+  if (a != 1) s += std::to_string(a) + "*";
+  return s + name + "()";
+}
+
+std::vector<TiedParameter> PhaseRules(const PhaseSolution& sol, const std::vector<NetworkEdge>& edges) {
+  const auto names = ClassNames(sol, edges);
+  std::vector<TiedParameter> rules;
+  for (const auto& [cls, expr] : sol.pivots) {
+    // y ≡ Σ a·y_j + pi·π, so y = M2Pi(Σ (-a)·y_j + pi·π).
+    std::string body;
+    for (const auto& [j, a] : expr.coef) body += Term(-a, names[j], body.empty());
+    if (expr.pi) body += " + pi";
+    rules.push_back({names[cls], "M2Pi(" + body + ")"});
+  }
+  for (int e = 0; e < static_cast<int>(edges.size()); ++e) {
+    const std::string own = PhaseName(edges[e].u, edges[e].v);
+    const EdgeTie& t = sol.ties[e];
+    if (own != names[t.cls]) {
+      const std::string ref = names[t.cls] + "()";
+      std::string expr = t.sign > 0 ? ref : "-" + ref;
+      if (t.pi) expr = "M2Pi(" + std::string(t.sign > 0 ? "-" : "") + ref + " + pi)";
+      rules.push_back({own, expr});
+    }
+  }
+  for (const NetworkEdge& e : edges) rules.push_back({PhaseName(e.v, e.u), "-" + PhaseName(e.u, e.v) + "()"});
+  return rules;
+}
+
+std::set<int> KeepFreeIndices(const std::vector<NetworkEdge>& edges,
+                              const std::vector<std::pair<ModuleId, ModuleId>>& keep_free) {
+  std::set<int> out;
+  for (const auto& [a, b] : keep_free) {
+    const auto key = std::minmax(a, b);
+    int found = -1;
+    for (int e = 0; e < static_cast<int>(edges.size()); ++e) {
+      if (edges[e].u == key.first && edges[e].v == key.second) found = e;
+    }
+    if (found < 0) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "keep-free coupling " + Id(a) + "-" + Id(b) +
+                      " is not a coupling of the generated network");
+    }
+    out.insert(found);
+  }
+  return out;
+}
+
+// Module classes with servo parity: offset(m) = sign·offset(rep).
+struct ModuleTie {
+  ModuleId rep = 0;
+  int sign = 1;
+};
+
+class ParityJoins {
+ public:
+  void Add(ModuleId v) { parent_.try_emplace(v, std::pair{v, 1}); }
+  std::pair<ModuleId, int> Find(ModuleId v) {
+    auto& [p, s] = parent_.at(v);
+    if (p == v) return {v, 1};
+    const auto [r, rs] = Find(p);
+    parent_[v] = {r, s * rs};
+    return parent_[v];
+  }
+  // value(b) = sign·value(a). Returns false on a contradiction.
+  bool Join(ModuleId a, ModuleId b, int sign) {
+    const auto [ra, sa] = Find(a);
+    const auto [rb, sb] = Find(b);
+    if (ra == rb) return sa * sign == sb;
+    // value(b) = sb·value(rb); value(a) = sa·value(ra) → value(rb) = sb·sign·sa·value(ra)
+    if (rb < ra) {
+      parent_[ra] = {rb, sb * sign * sa};
+    } else {
+      parent_[rb] = {ra, sb * sign * sa};
+    }
+    return true;
+  }
+
+ private:
+  std::map<ModuleId, std::pair<ModuleId, int>> parent_;
+};
+
+double AmplitudeMax(const ModuleParams& m) {
+  return std::min(kPi / 2, std::max(0.0, (m.max_angle - m.min_angle) / 2));
+}
+
+// A fixed-algorithm shuffle so the seeded order is the same on every
+// standard library.
+template <typename T>
+void SeededShuffle(std::vector<T>& items, std::mt19937_64& rng) {
+  for (size_t i = items.size(); i > 1; --i) std::swap(items[i - 1], items[rng() % i]);
+}
+
+// Parameter ties under a set of symmetries.
+struct Ties {
+  std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> module_classes;  // rep -> (member, sign)
+  std::set<ModuleId> offsets_apart;  // class reps whose offsets stay untied
+  std::vector<EdgeTie> ties;
+  std::vector<std::string> notes;
+  int contradictions = 0;            // offsets or phases a symmetry forces onto their reverse
+};
+
+Ties ComputeTies(const std::vector<Symmetry>& elements, const std::vector<GraphModule>& pm,
+                 const std::set<ModuleId>& driven, const CpgNetwork& net, const std::set<int>& keep_free) {
+  Ties ties_out;
+  auto& module_classes = ties_out.module_classes;
+  auto& offsets_apart = ties_out.offsets_apart;
+  auto& ties = ties_out.ties;
+  // Module classes.
+  ParityJoins modules;
+  for (ModuleId id : driven) modules.Add(id);
+  std::set<ModuleId> odd_roots_members;  // members of classes whose offsets cannot tie
+  std::vector<std::pair<ModuleId, ModuleId>> contradictions;
+  for (const Symmetry& s : elements) {
+    for (size_t i = 0; i < pm.size(); ++i) {
+      const ModuleId a = pm[i].id, b = pm[s.image[i]].id;
+      if (!driven.count(a)) continue;
+      if (!modules.Join(a, b, s.ServoSign(static_cast<int>(i)))) contradictions.push_back({a, b});
+    }
+  }
+  for (ModuleId id : driven) {
+    const auto [r, s] = modules.Find(id);
+    module_classes[r].push_back({id, s});
+  }
+  for (const auto& [a, b] : contradictions) offsets_apart.insert(modules.Find(a).first);
+
+  // Edge classes.
+  const int m = static_cast<int>(net.edges.size());
+  std::map<std::pair<ModuleId, ModuleId>, int> edge_index;
+  for (int e = 0; e < m; ++e) edge_index[{net.edges[e].u, net.edges[e].v}] = e;
+  ties.resize(m);
+  {
+    // Weighted union-find: x_e = sign·x_root + pi·π.
+    std::vector<int> parent(m), sign(m, 1), pi(m, 0);
+    for (int e = 0; e < m; ++e) parent[e] = e;
+    std::vector<bool> broken(m, false);
+    std::function<int(int)> find = [&](int e) {
+      if (parent[e] == e) return e;
+      const int p = parent[e];
+      const int r = find(p);
+      sign[e] *= sign[p];
+      pi[e] = (pi[e] + pi[p]) % 2;
+      parent[e] = r;
+      return r;
+    };
+    std::map<ModuleId, int> index_of;
+    for (size_t i = 0; i < pm.size(); ++i) index_of[pm[i].id] = static_cast<int>(i);
+    for (const Symmetry& s : elements) {
+      for (int e = 0; e < m; ++e) {
+        if (keep_free.count(e)) continue;
+        const ModuleId u = net.edges[e].u, v = net.edges[e].v;
+        const int iu = index_of.at(u), iv = index_of.at(v);
+        const ModuleId su = pm[s.image[iu]].id, sv = pm[s.image[iv]].id;
+        auto it = edge_index.find(std::minmax(su, sv));
+        if (it == edge_index.end() || keep_free.count(it->second)) continue;
+        const int flip = (driven.count(u) && driven.count(v) && s.ServoSign(iu) != s.ServoSign(iv)) ? 1 : 0;
+        const int rel_sign = su < sv ? 1 : -1;  // x_e' = rel_sign·x_e + flip·π
+        const int f = it->second;
+        const int ra = find(e), rb = find(f);
+        // x_e = sign[e]·x_ra + pi[e]π ; x_f = sign[f]·x_rb + pi[f]π
+        if (ra == rb) {
+          // need x_f = rel·x_e + flip: sign[f] == rel·sign[e], pi[f] == pi[e] + flip
+          if (sign[f] != rel_sign * sign[e] || pi[f] != (pi[e] + flip) % 2) broken[ra] = true;
+          continue;
+        }
+        // x_rb = sign[f]·(x_f - pi[f]π) = sign[f]·(rel·(sign[e] x_ra + pi[e]π) + flip π - pi[f]π)
+        parent[rb] = ra;
+        sign[rb] = sign[f] * rel_sign * sign[e];
+        pi[rb] = (pi[e] + flip + pi[f]) % 2;
+        broken[ra] = broken[ra] || broken[rb];
+      }
+    }
+    for (int e = 0; e < m; ++e) {
+      const int r = find(e);
+      ties[e] = {.cls = r, .sign = sign[e], .pi = pi[e]};
+    }
+    int next = m;
+    for (int e = 0; e < m; ++e) {
+      if (broken[find(e)]) {
+        ++ties_out.contradictions;
+        ties_out.notes.push_back("coupling " + EdgeName(net.edges[e]) +
+                            " is symmetric to others only up to a fixed phase; left untied");
+        ties[e] = {.cls = next++, .sign = 1, .pi = 0};
+      }
+    }
+    Normalise(ties);
+  }
+  ties_out.contradictions += static_cast<int>(contradictions.size());
+  return ties_out;
+}
+
+}  // namespace
+
+PhaseSystem BuildPhaseSystem(const std::vector<ModuleId>& vertices,
+                             const std::vector<NetworkEdge>& edges,
+                             const std::vector<std::pair<ModuleId, ModuleId>>& keep_free) {
+  std::vector<EdgeTie> ties(edges.size());
+  for (size_t e = 0; e < edges.size(); ++e) ties[e] = {.cls = static_cast<int>(e)};
+  const PhaseSolution sol = SolvePhases(vertices, edges, ties, KeepFreeIndices(edges, keep_free));
+  PhaseSystem out;
+  const auto names = ClassNames(sol, edges);
+  for (int cls : sol.free_classes) out.free.push_back(names[cls]);
+  out.tied = PhaseRules(sol, edges);
+  out.loops = sol.loops;
+  return out;
+}
+
+RobotConfig WarmStart(const ModuleGraph& graph, const CpgNetwork& network, const RobotConfig& base,
+                      const ProblemOptions& options) {
+  double speed = options.default_speed;
+  std::map<double, int> speeds;
+  for (const ModuleParams& m : base.modules) {
+    if (m.speed > 0) ++speeds[m.speed];
+  }
+  int most = 0;
+  for (const auto& [s, count] : speeds) {
+    if (count > most) {
+      most = count;
+      speed = s;
+    }
+  }
+  RobotConfig config = NetworkConfig(graph, network, options.default_amplitude, speed,
+                                     base.master_id);
+  const std::set<ModuleId> oscillators(network.oscillators.begin(), network.oscillators.end());
+  for (ModuleParams& m : config.modules) {
+    if (!oscillators.count(m.id)) continue;
+    if (const ModuleParams* old = base.FindModule(m.id)) {
+      m = *old;
+      continue;
+    }
+    for (ModuleId n : graph.Neighbours(m.id)) {
+      const ModuleParams* near = base.FindModule(n);
+      if (near && oscillators.count(n) && near->speed > 0) {
+        m.amplitude = near->amplitude;
+        m.min_angle = near->min_angle;
+        m.max_angle = near->max_angle;
+        break;
+      }
+    }
+  }
+  for (Coupling& c : config.couplings) {
+    if (const Coupling* old = base.FindCoupling(c.from, c.to)) {
+      c.phase = old->phase;
+      c.weight = old->weight;
+    }
+  }
+  return config;
+}
+
+GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* base,
+                                 const ProblemOptions& options) {
+  if (options.max_free < 1) {
+    throw Error(StatusCode::kInvalidArgument,
+                "the free-parameter budget must be at least 1, not " + std::to_string(options.max_free));
+  }
+  GeneratedProblem out;
+  out.graph_text = graph.Describe();
+  out.key = MorphologyKey(graph);
+  out.network = BuildNetwork(graph, options.network);
+  const CpgNetwork& net = out.network;
+  if (!net.ignored.empty()) {
+    std::string ids;
+    for (ModuleId id : net.ignored) ids += " " + Id(id);
+    out.notes.push_back("modules" + ids + " are not connected to the largest piece and are ignored");
+  }
+  if (!net.passive.empty()) {
+    std::string ids;
+    for (ModuleId id : net.passive) ids += " " + Id(id);
+    out.notes.push_back("passive modules" + ids + " have no oscillator; the network couples across them");
+  }
+  const std::set<ModuleId> driven = [&] {
+    std::set<ModuleId> s;
+    for (ModuleId id : net.oscillators) {
+      if (graph.Module(id).active) s.insert(id);
+    }
+    return s;
+  }();
+  const std::set<int> keep_free = KeepFreeIndices(net.edges, options.keep_free);
+
+  // Symmetries of the piece.
+  const ModuleGraph piece = graph.Subgraph(net.piece);
+  if (options.use_symmetry) out.symmetry = FindSymmetries(piece, options.symmetry);
+  const auto& pm = piece.modules();
+
+  std::vector<Symmetry> used = out.symmetry.elements;
+  Ties tied = ComputeTies(used, pm, driven, net, keep_free);
+  if (tied.contradictions > 0 &&
+      std::any_of(used.begin(), used.end(), [](const Symmetry& e) { return e.mirror; })) {
+    // A mirror that maps a moving module onto itself reversed admits no gait
+    // in which it moves (it would equal its own reverse): use the rotations.
+    std::erase_if(used, [](const Symmetry& e) { return e.mirror; });
+    tied = ComputeTies(used, pm, driven, net, keep_free);
+    out.notes.push_back("mirror symmetries left out: they map a moving module onto its own reverse");
+  }
+  const auto& module_classes = tied.module_classes;
+  const auto& offsets_apart = tied.offsets_apart;
+  const std::vector<EdgeTie>& ties = tied.ties;
+  for (const std::string& n : tied.notes) out.notes.push_back(n);
+  const int m = static_cast<int>(net.edges.size());
+  const PhaseSolution sol = SolvePhases(net.oscillators, net.edges, ties, keep_free);
+  out.loops = sol.loops;
+  for (const std::string& u : sol.untied) out.notes.push_back(u);
+
+  // The warm-started robot.
+  RobotConfig empty;
+  empty.master_id = graph.central();
+  const RobotConfig& from = base ? *base : empty;
+  out.robot = WarmStart(graph, net, from, options);
+  // New modules take their orbit's values (mirrored by the servo sign).
+  for (const auto& [rep, members] : module_classes) {
+    const ModuleParams* known = nullptr;
+    int known_sign = 1;
+    for (const auto& [id, s] : members) {
+      if (from.FindModule(id)) {
+        known = from.FindModule(id);
+        known_sign = s;
+        break;
+      }
+    }
+    if (!known) continue;
+    for (const auto& [id, s] : members) {
+      if (from.FindModule(id)) continue;
+      ModuleParams* m2 = out.robot.FindModule(id);
+      const int rel = s * known_sign;
+      m2->amplitude = known->amplitude;
+      m2->offset = rel * known->offset;
+      m2->speed = known->speed;
+      m2->min_angle = rel > 0 ? known->min_angle : -known->max_angle;
+      m2->max_angle = rel > 0 ? known->max_angle : -known->min_angle;
+    }
+  }
+  // Tied members start where their representative is, so the start point is
+  // the tied one.
+  for (const auto& [rep, members] : module_classes) {
+    const ModuleParams r = *out.robot.FindModule(rep);
+    for (const auto& [id, s] : members) {
+      ModuleParams* m2 = out.robot.FindModule(id);
+      m2->amplitude = r.amplitude;
+      if (!offsets_apart.count(rep)) m2->offset = s * r.offset;
+    }
+  }
+  // Passive oscillators (thesis-literal networks) stay at zero; clamp the
+  // start values into the limits the bounds come from.
+  for (ModuleParams& p : out.robot.modules) {
+    if (!driven.count(p.id)) continue;
+    p.amplitude = std::clamp(p.amplitude, 0.0, AmplitudeMax(p));
+    p.offset = std::clamp(p.offset, p.min_angle, p.max_angle);
+  }
+
+  // Free parameters.
+  struct Candidate {
+    FreeParameter param;
+    int kind;  // 0 offset, 1 phase, 2 amplitude: the budget rule fixes in this order
+  };
+  std::vector<Candidate> free;
+  for (const auto& [rep, members] : module_classes) {
+    std::string ids;
+    for (const auto& [id, s] : members) ids += " " + Id(id);
+    const ModuleParams& r = *out.robot.FindModule(rep);
+    free.push_back({{"amplitude." + Id(rep), 0.0, AmplitudeMax(r), "amplitude of module(s)" + ids}, 2});
+    if (offsets_apart.count(rep)) {
+      for (const auto& [id, s] : members) {
+        const ModuleParams& p = *out.robot.FindModule(id);
+        free.push_back({{"offset." + Id(id), p.min_angle, p.max_angle, "offset of module " + Id(id)}, 0});
+      }
+      out.notes.push_back("module(s)" + ids +
+                          " share an amplitude but not an offset: a symmetry reverses one of them onto itself");
+    } else {
+      free.push_back({{"offset." + Id(rep), r.min_angle, r.max_angle, "offset of module(s)" + ids}, 0});
+    }
+  }
+  const auto names = ClassNames(sol, net.edges);
+  for (int cls : sol.free_classes) {
+    std::string es;
+    for (int e = 0; e < m; ++e) {
+      if (sol.ties[e].cls == cls) es += " " + EdgeName(net.edges[e]);
+    }
+    free.push_back({{names[cls], 0.0, 2 * kPi, "phase of coupling(s)" + es}, 1});
+  }
+
+  // The budget rule: seeded order inside each kind, offsets first, then
+  // phases, then amplitudes; the fixed keep their warm-start value.
+  std::vector<int> fix_order;
+  {
+    std::mt19937_64 rng(options.seed);
+    for (int kind = 0; kind < 3; ++kind) {
+      std::vector<int> of_kind;
+      for (int i = 0; i < static_cast<int>(free.size()); ++i) {
+        if (free[i].kind == kind) of_kind.push_back(i);
+      }
+      SeededShuffle(of_kind, rng);
+      fix_order.insert(fix_order.end(), of_kind.begin(), of_kind.end());
+    }
+  }
+  std::set<int> fixed;
+  const int excess = static_cast<int>(free.size()) - options.max_free;
+  for (int i = 0; i < excess; ++i) fixed.insert(fix_order[i]);
+  auto value_of = [&](const std::string& param) -> double {
+    const auto dot = param.find('.');
+    const std::string kind = param.substr(0, dot);
+    const std::string rest = param.substr(dot + 1);
+    if (kind == "phase") {
+      const auto dot2 = rest.find('.');
+      const Coupling* c = out.robot.FindCoupling(std::stoi(rest.substr(0, dot2)), std::stoi(rest.substr(dot2 + 1)));
+      return c ? c->phase : 0.0;
+    }
+    const ModuleParams* p = out.robot.FindModule(std::stoi(rest));
+    return kind == "amplitude" ? p->amplitude : p->offset;
+  };
+  for (int i = 0; i < static_cast<int>(free.size()); ++i) {
+    if (fixed.count(i)) {
+      out.fixed.push_back({free[i].param.param, value_of(free[i].param.param)});
+    } else {
+      out.free.push_back(free[i].param);
+    }
+  }
+  for (const FixedParameter& f : out.fixed) {
+    if (f.param.rfind("phase.", 0) == 0) continue;
+    // Tied amplitude/offset members keep following the fixed representative.
+  }
+  if (!out.fixed.empty()) {
+    out.notes.push_back(std::to_string(out.fixed.size()) + " parameter(s) above the budget of " +
+                        std::to_string(options.max_free) + " fixed at their warm-start values (seed " +
+                        std::to_string(options.seed) + ")");
+  }
+
+  // Tied parameters: module ties, then phases.
+  for (const auto& [rep, members] : module_classes) {
+    for (const auto& [id, s] : members) {
+      if (id == rep) continue;
+      out.tied.push_back({"amplitude." + Id(id), "amplitude." + Id(rep) + "()"});
+      if (!offsets_apart.count(rep)) {
+        std::string expr = s > 0 ? "offset." : "-offset.";
+        expr += Id(rep) + "()";
+        out.tied.push_back({"offset." + Id(id), expr});
+      }
+    }
+  }
+  for (TiedParameter& t : PhaseRules(sol, net.edges)) out.tied.push_back(std::move(t));
+  return out;
+}
+
+std::string GeneratedProblem::OptimizationXml() const {
+  std::string xml = WriteConfigXml(robot);
+  const std::string close = "</yamorconfig>";
+  const auto at = xml.rfind(close);
+  YAMOR_CHECK(at != std::string::npos, "robot XML without </yamorconfig>");
+  std::ostringstream rules;
+  rules << "  <!-- generated by yamor-cpg-build; morphology key " << key << " -->\n";
+  for (const FixedParameter& f : fixed) {
+    rules << "  <!-- fixed by the budget rule: " << f.param << " = " << FormatDouble(f.value) << " -->\n";
+  }
+  for (const FreeParameter& p : free) {
+    rules << "  <optimize param=\"" << p.param << "\" min=\"" << FormatDouble(p.min) << "\" max=\""
+          << FormatDouble(p.max) << "\"/>  <!-- " << p.note << " -->\n";
+  }
+  for (const TiedParameter& t : tied) {
+    rules << "  <constrain param=\"" << t.param << "\" expr=\"" << t.expr << "\"/>\n";
+  }
+  return xml.substr(0, at) + rules.str() + xml.substr(at);
+}
+
+std::string GeneratedProblem::Explain() const {
+  std::ostringstream out;
+  out << "morphology key: " << key << "\n\n" << graph_text << "\nCPG network: " << network.oscillators.size()
+      << " oscillators, " << network.edges.size() << " couplings (each both ways)\n";
+  for (const NetworkEdge& e : network.edges) {
+    out << "  " << e.u << " <-> " << e.v;
+    if (!e.physical) out << "  (across passive module " << e.via << ")";
+    out << "\n";
+  }
+  out << "\nsymmetries: group of order " << symmetry.full_order;
+  if (symmetry.dropped_for_gravity > 0) {
+    out << ", " << symmetry.dropped_for_gravity << " element(s) left out because they turn the robot over";
+  }
+  out << "; " << symmetry.elements.size() << " used" << (symmetry.enumerated ? "" : " (generators only)")
+      << "\norbits:";
+  for (const auto& orbit : symmetry.orbits) {
+    out << " {";
+    for (size_t i = 0; i < orbit.size(); ++i) out << (i ? " " : "") << orbit[i];
+    out << "}";
+  }
+  out << "\n\nloops (fundamental cycles of a spanning tree): " << loops.size() << "\n";
+  for (const std::string& l : loops) out << "  " << l << "\n";
+  out << "\nfree parameters: " << free.size() << "\n";
+  for (const FreeParameter& p : free) {
+    out << "  " << p.param << " in [" << FormatDouble(p.min) << ", " << FormatDouble(p.max) << "]  " << p.note
+        << "\n";
+  }
+  if (!fixed.empty()) {
+    out << "fixed by the budget rule:\n";
+    for (const FixedParameter& f : fixed) out << "  " << f.param << " = " << FormatDouble(f.value) << "\n";
+  }
+  out << "constraints: " << tied.size() << "\n";
+  for (const TiedParameter& t : tied) out << "  " << t.param << " = " << t.expr << "\n";
+  if (!notes.empty()) {
+    out << "notes:\n";
+    for (const std::string& n : notes) out << "  - " << n << "\n";
+  }
+  return out.str();
+}
+
+}  // namespace yamor::cpg
