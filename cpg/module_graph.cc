@@ -221,10 +221,12 @@ std::string ModuleGraph::Describe() const {
   return out.str();
 }
 
-std::vector<std::pair<ModuleId, bool>> ActivityFromConfig(const RobotConfig& config) {
+std::vector<std::pair<ModuleId, bool>> ActivityFromConfig(const RobotConfig& config,
+                                                          const std::vector<ModuleId>& ids) {
   std::vector<std::pair<ModuleId, bool>> out;
-  for (const ModuleParams& m : config.modules) {
-    out.emplace_back(m.id, !(m.amplitude == 0.0 && m.offset == 0.0 && m.speed == 0.0));
+  for (ModuleId id : ids) {
+    const ModuleParams* m = config.FindModule(id);
+    out.emplace_back(id, m && !(m->amplitude == 0.0 && m->offset == 0.0 && m->speed == 0.0));
   }
   return out;
 }

@@ -124,9 +124,12 @@ class ModuleGraph {
   std::optional<Eigen::Vector3d> up_;
 };
 
-/// The passive/driven split a robot configuration implies: a module whose
-/// oscillator is all zero (amplitude, offset and speed 0) is passive, as
-/// bridge::IsInactive decides; modules the configuration lacks are driven.
-std::vector<std::pair<ModuleId, bool>> ActivityFromConfig(const RobotConfig& config);
+/// The passive/driven split a robot configuration implies for the modules
+/// `ids`: a module whose oscillator is all zero (amplitude, offset and speed
+/// 0) is passive, as bridge::IsInactive decides, and so is a module the
+/// configuration does not name (it is never configured, and a module powers
+/// up with its motor off).
+std::vector<std::pair<ModuleId, bool>> ActivityFromConfig(const RobotConfig& config,
+                                                          const std::vector<ModuleId>& ids);
 
 }  // namespace yamor::cpg

@@ -171,8 +171,10 @@ PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vect
       std::string names;
       for (int e = 0; e < m; ++e) {
         if (ties[e].cls != cls) continue;
-        if (!names.empty()) names += ' ';
-        names += EdgeName(edges[e]);
+        if (!names.empty()) {
+      names += ' ';
+      names += EdgeName(edges[e]);
+    }
         ties[e] = {.cls = next++, .sign = 1, .pi = 0};
       }
       sol.untied.push_back("couplings " + names + " are symmetric but not tied: " + why);
@@ -390,8 +392,9 @@ struct Ties {
   std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> module_classes;  // rep -> (member, sign)
   std::set<ModuleId> offsets_apart;  // class reps whose offsets stay untied
   std::vector<EdgeTie> ties;
+  std::vector<bool> edge_broken;     // the class maps an edge onto itself shifted by pi
   std::vector<std::string> notes;
-  int contradictions = 0;            // offsets or phases a symmetry forces onto their reverse
+  int contradictions = 0;            // offsets a symmetry forces onto their reverse
 };
 
 Ties ComputeTies(const std::vector<Symmetry>& elements, const std::vector<GraphModule>& pm,
@@ -468,16 +471,8 @@ Ties ComputeTies(const std::vector<Symmetry>& elements, const std::vector<GraphM
       const int r = find(e);
       ties[e] = {.cls = r, .sign = sign[e], .pi = pi[e]};
     }
-    int next = m;
-    for (int e = 0; e < m; ++e) {
-      if (broken[find(e)]) {
-        ++ties_out.contradictions;
-        ties_out.notes.push_back("coupling " + EdgeName(net.edges[e]) +
-                            " is symmetric to others only up to a fixed phase; left untied");
-        ties[e] = {.cls = next++, .sign = 1, .pi = 0};
-      }
-    }
-    Normalise(ties);
+    ties_out.edge_broken.assign(m, false);
+    for (int e = 0; e < m; ++e) ties_out.edge_broken[e] = broken[find(e)];
   }
   ties_out.contradictions += static_cast<int>(contradictions.size());
   return ties_out;
@@ -554,12 +549,18 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   const CpgNetwork& net = out.network;
   if (!net.ignored.empty()) {
     std::string ids;
-    for (ModuleId id : net.ignored) ids += " " + Id(id);
+    for (ModuleId id : net.ignored) {
+      ids += ' ';
+      ids += Id(id);
+    }
     out.notes.push_back("modules" + ids + " are not connected to the largest piece and are ignored");
   }
   if (!net.passive.empty()) {
     std::string ids;
-    for (ModuleId id : net.passive) ids += " " + Id(id);
+    for (ModuleId id : net.passive) {
+      ids += ' ';
+      ids += Id(id);
+    }
     out.notes.push_back("passive modules" + ids + " have no oscillator; the network couples across them");
   }
   const std::set<ModuleId> driven = [&] {
@@ -576,21 +577,57 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   if (options.use_symmetry) out.symmetry = FindSymmetries(piece, options.symmetry);
   const auto& pm = piece.modules();
 
-  std::vector<Symmetry> used = out.symmetry.elements;
-  Ties tied = ComputeTies(used, pm, driven, net, keep_free);
-  if (tied.contradictions > 0 &&
-      std::any_of(used.begin(), used.end(), [](const Symmetry& e) { return e.mirror; })) {
-    // A mirror that maps a moving module onto itself reversed admits no gait
-    // in which it moves (it would equal its own reverse): use the rotations.
-    std::erase_if(used, [](const Symmetry& e) { return e.mirror; });
-    tied = ComputeTies(used, pm, driven, net, keep_free);
-    out.notes.push_back("mirror symmetries left out: they map a moving module onto its own reverse");
+  // Ties under every kept symmetry; where a mirror maps a moving module (or
+  // a coupling) onto its own reverse, no gait has that symmetry while the
+  // module moves, and those classes fall back to the rotations' ties.
+  const std::vector<Symmetry>& all_elements = out.symmetry.elements;
+  std::vector<Symmetry> rotations;
+  for (const Symmetry& e : all_elements) {
+    if (!e.mirror) rotations.push_back(e);
   }
-  const auto& module_classes = tied.module_classes;
-  const auto& offsets_apart = tied.offsets_apart;
-  const std::vector<EdgeTie>& ties = tied.ties;
-  for (const std::string& n : tied.notes) out.notes.push_back(n);
+  const Ties full = ComputeTies(all_elements, pm, driven, net, keep_free);
+  const Ties rot = ComputeTies(rotations, pm, driven, net, keep_free);
   const int m = static_cast<int>(net.edges.size());
+  // Amplitude classes: every symmetry (an amplitude has no sign).
+  std::map<ModuleId, std::vector<ModuleId>> amplitude_classes;
+  for (const auto& [rep, members] : full.module_classes) {
+    for (const auto& [id, sign] : members) amplitude_classes[rep].push_back(id);
+  }
+  // Offset classes with signs.
+  std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> offset_classes;
+  for (const auto& [rep, members] : full.module_classes) {
+    if (!full.offsets_apart.count(rep)) {
+      offset_classes[rep] = members;
+      continue;
+    }
+    std::string ids;
+    for (const auto& [id, sign] : members) {
+      ids += ' ';
+      ids += Id(id);
+    }
+    out.notes.push_back("module(s)" + ids +
+                        ": a mirror maps one of them onto its own reverse; their offsets are tied by "
+                        "rotations only");
+    for (const auto& [rrep, rmembers] : rot.module_classes) {
+      if (std::none_of(members.begin(), members.end(), [&](const auto& x) { return x.first == rrep; })) continue;
+      if (rot.offsets_apart.count(rrep)) {
+        for (const auto& [id, sign] : rmembers) offset_classes[id] = {{id, 1}};
+      } else {
+        offset_classes[rrep] = rmembers;
+      }
+    }
+  }
+  std::vector<EdgeTie> ties(m);
+  for (int e = 0; e < m; ++e) {
+    if (!full.edge_broken[e]) {
+      ties[e] = full.ties[e];
+    } else if (!rot.edge_broken[e]) {
+      ties[e] = {.cls = m + rot.ties[e].cls, .sign = rot.ties[e].sign, .pi = rot.ties[e].pi};
+    } else {
+      ties[e] = {.cls = 2 * m + e};
+    }
+  }
+  Normalise(ties);
   const PhaseSolution sol = SolvePhases(net.oscillators, net.edges, ties, keep_free);
   out.loops = sol.loops;
   for (const std::string& u : sol.untied) out.notes.push_back(u);
@@ -600,95 +637,148 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   empty.master_id = graph.central();
   const RobotConfig& from = base ? *base : empty;
   out.robot = WarmStart(graph, net, from, options);
-  // New modules take their orbit's values (mirrored by the servo sign).
-  for (const auto& [rep, members] : module_classes) {
+  // New modules take their orbit's values (offset and limits mirrored by
+  // the servo sign).
+  for (const auto& [rep, members] : offset_classes) {
     const ModuleParams* known = nullptr;
     int known_sign = 1;
-    for (const auto& [id, s] : members) {
-      if (from.FindModule(id)) {
-        known = from.FindModule(id);
-        known_sign = s;
+    for (const auto& [id, sign] : members) {
+      if ((known = from.FindModule(id))) {
+        known_sign = sign;
         break;
       }
     }
     if (!known) continue;
-    for (const auto& [id, s] : members) {
+    for (const auto& [id, sign] : members) {
       if (from.FindModule(id)) continue;
-      ModuleParams* m2 = out.robot.FindModule(id);
-      const int rel = s * known_sign;
-      m2->amplitude = known->amplitude;
-      m2->offset = rel * known->offset;
-      m2->speed = known->speed;
-      m2->min_angle = rel > 0 ? known->min_angle : -known->max_angle;
-      m2->max_angle = rel > 0 ? known->max_angle : -known->min_angle;
+      ModuleParams* p = out.robot.FindModule(id);
+      const int rel = sign * known_sign;
+      p->amplitude = known->amplitude;
+      p->offset = rel * known->offset;
+      p->speed = known->speed;
+      p->min_angle = rel > 0 ? known->min_angle : -known->max_angle;
+      p->max_angle = rel > 0 ? known->max_angle : -known->min_angle;
     }
   }
-  // Tied members start where their representative is, so the start point is
-  // the tied one.
-  for (const auto& [rep, members] : module_classes) {
-    const ModuleParams r = *out.robot.FindModule(rep);
-    for (const auto& [id, s] : members) {
-      ModuleParams* m2 = out.robot.FindModule(id);
-      m2->amplitude = r.amplitude;
-      if (!offsets_apart.count(rep)) m2->offset = s * r.offset;
+  // New couplings take their class's phase.
+  for (int e = 0; e < m; ++e) {
+    const NetworkEdge& ne = net.edges[e];
+    if (from.FindCoupling(ne.u, ne.v)) continue;
+    for (int k = 0; k < m; ++k) {
+      const NetworkEdge& nk = net.edges[k];
+      const Coupling* old = from.FindCoupling(nk.u, nk.v);
+      if (!old || ties[k].cls != ties[e].cls) continue;
+      // x_k = s_k·y + p_k·π → y = s_k·(x_k − p_k·π); x_e = s_e·y + p_e·π
+      const double y = ties[k].sign * (old->phase - ties[k].pi * kPi);
+      const double x = ties[e].sign * y + ties[e].pi * kPi;
+      out.robot.FindCoupling(ne.u, ne.v)->phase = x;
+      out.robot.FindCoupling(ne.v, ne.u)->phase = -x;
+      break;
     }
   }
-  // Passive oscillators (thesis-literal networks) stay at zero; clamp the
-  // start values into the limits the bounds come from.
-  for (ModuleParams& p : out.robot.modules) {
-    if (!driven.count(p.id)) continue;
+  auto clamp_start = [&](ModuleParams& p) {
     p.amplitude = std::clamp(p.amplitude, 0.0, AmplitudeMax(p));
     p.offset = std::clamp(p.offset, p.min_angle, p.max_angle);
+  };
+  for (ModuleParams& p : out.robot.modules) {
+    if (driven.count(p.id)) clamp_start(p);
   }
 
-  // Free parameters.
+  // Candidates: one amplitude per amplitude class, one offset per offset
+  // class, one phase per free phase class.
   struct Candidate {
     FreeParameter param;
-    int kind;  // 0 offset, 1 phase, 2 amplitude: the budget rule fixes in this order
+    int kind;  // 0 offset, 1 phase, 2 amplitude
   };
-  std::vector<Candidate> free;
-  for (const auto& [rep, members] : module_classes) {
-    std::string ids;
-    for (const auto& [id, s] : members) ids += " " + Id(id);
-    const ModuleParams& r = *out.robot.FindModule(rep);
-    free.push_back({{"amplitude." + Id(rep), 0.0, AmplitudeMax(r), "amplitude of module(s)" + ids}, 2});
-    if (offsets_apart.count(rep)) {
-      for (const auto& [id, s] : members) {
-        const ModuleParams& p = *out.robot.FindModule(id);
-        free.push_back({{"offset." + Id(id), p.min_angle, p.max_angle, "offset of module " + Id(id)}, 0});
+  auto members_text = [](const auto& ids) {
+    std::string t;
+    for (const auto& x : ids) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(x)>, ModuleId>) {
+        t += ' ';
+        t += Id(x);
+      } else {
+        t += ' ';
+        t += Id(x.first);
       }
-      out.notes.push_back("module(s)" + ids +
-                          " share an amplitude but not an offset: a symmetry reverses one of them onto itself");
-    } else {
-      free.push_back({{"offset." + Id(rep), r.min_angle, r.max_angle, "offset of module(s)" + ids}, 0});
     }
+    return t;
+  };
+  std::vector<Candidate> offsets, amplitudes, phases;
+  for (const auto& [rep, members] : offset_classes) {
+    const ModuleParams& r = *out.robot.FindModule(rep);
+    offsets.push_back({{"offset." + Id(rep), r.min_angle, r.max_angle, "offset of module(s)" + members_text(members)}, 0});
+  }
+  for (const auto& [rep, members] : amplitude_classes) {
+    double max = kPi / 2;
+    for (ModuleId id : members) max = std::min(max, AmplitudeMax(*out.robot.FindModule(id)));
+    amplitudes.push_back({{"amplitude." + Id(rep), 0.0, max, "amplitude of module(s)" + members_text(members)}, 2});
   }
   const auto names = ClassNames(sol, net.edges);
   for (int cls : sol.free_classes) {
     std::string es;
     for (int e = 0; e < m; ++e) {
-      if (sol.ties[e].cls == cls) es += " " + EdgeName(net.edges[e]);
+      if (sol.ties[e].cls == cls) {
+      es += ' ';
+      es += EdgeName(net.edges[e]);
     }
-    free.push_back({{names[cls], 0.0, 2 * kPi, "phase of coupling(s)" + es}, 1});
+    }
+    phases.push_back({{names[cls], 0.0, 2 * kPi, "phase of coupling(s)" + es}, 1});
   }
 
-  // The budget rule: seeded order inside each kind, offsets first, then
-  // phases, then amplitudes; the fixed keep their warm-start value.
-  std::vector<int> fix_order;
-  {
-    std::mt19937_64 rng(options.seed);
-    for (int kind = 0; kind < 3; ++kind) {
-      std::vector<int> of_kind;
-      for (int i = 0; i < static_cast<int>(free.size()); ++i) {
-        if (free[i].kind == kind) of_kind.push_back(i);
-      }
-      SeededShuffle(of_kind, rng);
-      fix_order.insert(fix_order.end(), of_kind.begin(), of_kind.end());
-    }
+  // The budget rule (docs/cpg_build.md): (1) fix offsets, in a seeded order;
+  // (2) tie every amplitude to one; (3) fix phases, in a seeded order;
+  // (4) fix the amplitude. What is fixed keeps its warm-start value.
+  std::mt19937_64 rng(options.seed);
+  SeededShuffle(offsets, rng);
+  SeededShuffle(phases, rng);
+  auto total = [&] { return offsets.size() + amplitudes.size() + phases.size(); };
+  const size_t budget = static_cast<size_t>(options.max_free);
+  std::vector<std::string> fixed_params;
+  while (total() > budget && !offsets.empty()) {
+    fixed_params.push_back(offsets.back().param.param);
+    offsets.pop_back();
   }
-  std::set<int> fixed;
-  const int excess = static_cast<int>(free.size()) - options.max_free;
-  for (int i = 0; i < excess; ++i) fixed.insert(fix_order[i]);
+  bool amplitudes_merged = false;
+  if (total() > budget && amplitudes.size() > 1) {
+    // One amplitude for every driven module: the representative is the
+    // smallest id, its bound the tightest of all.
+    Candidate merged = amplitudes.front();
+    std::map<ModuleId, std::vector<ModuleId>> one;
+    const ModuleId rep = amplitude_classes.begin()->first;
+    for (const auto& [r, members] : amplitude_classes) {
+      one[rep].insert(one[rep].end(), members.begin(), members.end());
+    }
+    for (const Candidate& c : amplitudes) merged.param.max = std::min(merged.param.max, c.param.max);
+    std::sort(one[rep].begin(), one[rep].end());
+    merged.param.note = "amplitude of module(s)" + members_text(one[rep]) + " (tied by the budget rule)";
+    amplitude_classes = one;
+    amplitudes = {merged};
+    amplitudes_merged = true;
+    out.notes.push_back("the budget rule ties every amplitude to amplitude." + Id(rep));
+  }
+  while (total() > budget && !phases.empty()) {
+    fixed_params.push_back(phases.back().param.param);
+    phases.pop_back();
+  }
+  while (total() > budget && !amplitudes.empty()) {
+    fixed_params.push_back(amplitudes.back().param.param);
+    amplitudes.pop_back();
+  }
+  (void)amplitudes_merged;
+
+  // Tied members start where their representative is.
+  for (const auto& [rep, members] : amplitude_classes) {
+    const double a = out.robot.FindModule(rep)->amplitude;
+    for (ModuleId id : members) out.robot.FindModule(id)->amplitude = a;
+  }
+  for (const auto& [rep, members] : offset_classes) {
+    const double o = out.robot.FindModule(rep)->offset;
+    for (const auto& [id, sign] : members) out.robot.FindModule(id)->offset = sign * o;
+  }
+  for (ModuleParams& p : out.robot.modules) {
+    if (driven.count(p.id)) clamp_start(p);
+  }
+
   auto value_of = [&](const std::string& param) -> double {
     const auto dot = param.find('.');
     const std::string kind = param.substr(0, dot);
@@ -701,17 +791,14 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     const ModuleParams* p = out.robot.FindModule(std::stoi(rest));
     return kind == "amplitude" ? p->amplitude : p->offset;
   };
-  for (int i = 0; i < static_cast<int>(free.size()); ++i) {
-    if (fixed.count(i)) {
-      out.fixed.push_back({free[i].param.param, value_of(free[i].param.param)});
-    } else {
-      out.free.push_back(free[i].param);
-    }
+  for (const std::string& f : fixed_params) out.fixed.push_back({f, value_of(f)});
+  for (const auto* group : {&amplitudes, &offsets, &phases}) {
+    for (const Candidate& c : *group) out.free.push_back(c.param);
   }
-  for (const FixedParameter& f : out.fixed) {
-    if (f.param.rfind("phase.", 0) == 0) continue;
-    // Tied amplitude/offset members keep following the fixed representative.
-  }
+  std::stable_sort(out.free.begin(), out.free.end(), [](const FreeParameter& x, const FreeParameter& y) {
+    auto rank = [](const std::string& p) { return p[0] == 'a' ? 0 : p[0] == 'o' ? 1 : 2; };
+    return rank(x.param) < rank(y.param);
+  });
   if (!out.fixed.empty()) {
     out.notes.push_back(std::to_string(out.fixed.size()) + " parameter(s) above the budget of " +
                         std::to_string(options.max_free) + " fixed at their warm-start values (seed " +
@@ -719,15 +806,17 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   }
 
   // Tied parameters: module ties, then phases.
-  for (const auto& [rep, members] : module_classes) {
-    for (const auto& [id, s] : members) {
+  for (const auto& [rep, members] : amplitude_classes) {
+    for (ModuleId id : members) {
+      if (id != rep) out.tied.push_back({"amplitude." + Id(id), "amplitude." + Id(rep) + "()"});
+    }
+  }
+  for (const auto& [rep, members] : offset_classes) {
+    for (const auto& [id, sign] : members) {
       if (id == rep) continue;
-      out.tied.push_back({"amplitude." + Id(id), "amplitude." + Id(rep) + "()"});
-      if (!offsets_apart.count(rep)) {
-        std::string expr = s > 0 ? "offset." : "-offset.";
-        expr += Id(rep) + "()";
-        out.tied.push_back({"offset." + Id(id), expr});
-      }
+      std::string expr = sign > 0 ? "offset." : "-offset.";
+      expr += Id(rep) + "()";
+      out.tied.push_back({"offset." + Id(id), expr});
     }
   }
   for (TiedParameter& t : PhaseRules(sol, net.edges)) out.tied.push_back(std::move(t));
