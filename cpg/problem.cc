@@ -676,6 +676,12 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
       break;
     }
   }
+  // Phases are angles: start them in [0, 2π), the bounds of a free phase.
+  for (Coupling& c : out.robot.couplings) {
+    c.phase = std::fmod(c.phase, 2 * kPi);
+    if (c.phase < 0) c.phase += 2 * kPi;
+    if (c.phase >= 2 * kPi) c.phase = 0;
+  }
   auto clamp_start = [&](ModuleParams& p) {
     p.amplitude = std::clamp(p.amplitude, 0.0, AmplitudeMax(p));
     p.offset = std::clamp(p.offset, p.min_angle, p.max_angle);

@@ -17,7 +17,8 @@ cpg::Connector ToCpg(ConnectorId c) {
 cpg::ModuleGraph ModuleGraphOf(const Morphology& morphology,
                                const std::vector<std::pair<int, bool>>& activity) {
   static_assert(static_cast<int>(ConnectorId::kBottom) == static_cast<int>(cpg::Connector::kBottom));
-  const std::map<int, bool> active(activity.begin(), activity.end());
+  std::map<int, bool> active;
+  for (const auto& [id, on] : activity) active[id] = on;  // a later entry overrides an earlier one
   std::vector<cpg::GraphModule> modules;
   for (const MorphologyModule& m : morphology.modules()) {
     if (m.free) continue;

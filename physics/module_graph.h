@@ -12,7 +12,8 @@ namespace yamor::physics {
 
 /// The graph of `morphology`'s connected modules (spares are left out) with
 /// each module's body orientation in the robot frame and up = +z. Modules
-/// listed in `activity` take that driven/passive flag; the rest are driven.
+/// listed in `activity` take that driven/passive flag (the last entry for an
+/// id wins); the rest are driven.
 /// Thread-safe.
 cpg::ModuleGraph ModuleGraphOf(const Morphology& morphology,
                                const std::vector<std::pair<int, bool>>& activity = {});

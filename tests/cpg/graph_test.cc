@@ -15,6 +15,7 @@
 #include "cpg/network_builder.h"
 #include "cpg/problem.h"
 #include "cpg/symmetry.h"
+#include "tests/support/random_module_graph.h"
 
 namespace yamor::cpg {
 namespace {
@@ -235,56 +236,12 @@ int BruteForceSymmetries(const ModuleGraph& g, bool mirror, std::vector<std::set
   return count;
 }
 
-// A random connected graph: each new module's front (or another connector)
-// screwed onto a free connector of an earlier one at a right angle, and a
-// few extra connections; labels from a small alphabet so symmetric graphs
-// are common.
-ModuleGraph RandomGraph(std::mt19937& rng, int n, bool extra_edges) {
-  std::vector<GraphModule> modules;
-  for (int i = 0; i < n; ++i) modules.push_back({.id = i * 3 % 251, .active = rng() % 4 != 0});
-  std::vector<GraphEdge> edges;
-  std::set<std::pair<int, Connector>> used;
-  auto free_connector = [&](int id, bool front_first) -> std::optional<Connector> {
-    std::vector<Connector> options;
-    for (int c = 0; c < kConnectorCount; ++c) {
-      if (!used.count({id, static_cast<Connector>(c)})) options.push_back(static_cast<Connector>(c));
-    }
-    if (options.empty()) return std::nullopt;
-    if (front_first && !used.count({id, F})) return F;
-    return options[rng() % options.size()];
-  };
-  for (int i = 1; i < n; ++i) {
-    for (int attempt = 0; attempt < 20; ++attempt) {
-      const int parent = modules[rng() % i].id;
-      auto cp = free_connector(parent, false);
-      auto cc = free_connector(modules[i].id, rng() % 4 != 0);
-      if (!cp || !cc) continue;
-      used.insert({parent, *cp});
-      used.insert({modules[i].id, *cc});
-      edges.push_back({modules[i].id, *cc, parent, *cp, static_cast<int>(rng() % 4) * 6});
-      break;
-    }
-  }
-  const int extra = extra_edges ? static_cast<int>(rng() % (n / 2 + 1)) : 0;
-  for (int k = 0; k < extra; ++k) {
-    const int a = modules[rng() % n].id, b = modules[rng() % n].id;
-    if (a == b) continue;
-    auto ca = free_connector(a, false);
-    auto cb = free_connector(b, false);
-    if (!ca || !cb) continue;
-    used.insert({a, *ca});
-    used.insert({b, *cb});
-    edges.push_back({a, *ca, b, *cb, static_cast<int>(rng() % 4) * 6});
-  }
-  return ModuleGraph(modules.front().id, modules, edges);
-}
-
 TEST(SymmetryTest, AgreesWithBruteForceOnSmallRandomGraphs) {
   std::mt19937 rng(20261202);
   int nontrivial = 0;
   for (int trial = 0; trial < 300; ++trial) {
     const int n = 1 + static_cast<int>(rng() % 9);
-    const ModuleGraph g = RandomGraph(rng, n, trial % 2 == 0);
+    const ModuleGraph g = test::RandomModuleGraph(rng, n, trial % 2 == 0);
     if (g.Components().size() != 1) continue;
     std::vector<std::set<int>> orbits(n);
     const int rotations = BruteForceSymmetries(g, false, &orbits);
