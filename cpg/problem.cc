@@ -609,7 +609,11 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
                         ": a mirror maps one of them onto its own reverse; their offsets are tied by "
                         "rotations only");
     for (const auto& [rrep, rmembers] : rot.module_classes) {
-      if (std::none_of(members.begin(), members.end(), [&](const auto& x) { return x.first == rrep; })) continue;
+      const ModuleId rotation_rep = rrep;  // clang 14 cannot capture a structured binding
+      if (std::none_of(members.begin(), members.end(),
+                       [&](const auto& x) { return x.first == rotation_rep; })) {
+        continue;
+      }
       if (rot.offsets_apart.count(rrep)) {
         for (const auto& [id, sign] : rmembers) offset_classes[id] = {{id, 1}};
       } else {

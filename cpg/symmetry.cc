@@ -23,8 +23,6 @@ namespace {
 struct BodyCode {
   int turns = 0;        // quarter turns about x, 0..3
   bool mirror = false;  // the module's own x-z reflection first
-
-  friend bool operator==(const BodyCode&, const BodyCode&) = default;
 };
 
 // (F2 ∘ F1): Rq^a Y^m Rq^b Y^n = Rq^(a ± b) Y^(m+n), since Y Rq Y = Rq^-1.
