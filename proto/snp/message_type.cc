@@ -42,12 +42,23 @@ const TypeInfo* Find(MessageType type) {
     YAMOR_SNP_TYPE(kConnectModules, C::kBridgeCommand, Fixed(5))
     YAMOR_SNP_TYPE(kDisconnectModule, C::kBridgeCommand, Fixed(1))
     YAMOR_SNP_TYPE(kResetSimulation, C::kBridgeCommand, Fixed(0))
+    YAMOR_SNP_TYPE(kSetGround, C::kBridgeCommand, Fixed(25))
+    YAMOR_SNP_TYPE(kSetMotorFault, C::kBridgeCommand, Fixed(2))
+    YAMOR_SNP_TYPE(kSetModuleDefect, C::kBridgeCommand, Fixed(2))
+    YAMOR_SNP_TYPE(kTurnUpsideDown, C::kBridgeCommand, Fixed(0))
+    YAMOR_SNP_TYPE(kGetDivergence, C::kBridgeCommand, Fixed(0))
+    YAMOR_SNP_TYPE(kReadMorphology, C::kBridgeCommand, Fixed(5))
+    YAMOR_SNP_TYPE(kGetSimInfo, C::kBridgeCommand, Fixed(0))
     YAMOR_SNP_TYPE(kSimTime, C::kBridgeReply, Fixed(8))
     YAMOR_SNP_TYPE(kStepDone, C::kBridgeReply, Fixed(8))
     YAMOR_SNP_TYPE(kTimerFired, C::kBridgeReply, Fixed(9))
     YAMOR_SNP_TYPE(kRobotPosition, C::kBridgeReply, Fixed(64))
     YAMOR_SNP_TYPE(kSpecialAck, C::kBridgeReply, Fixed(1))
     YAMOR_SNP_TYPE(kSpecialError, C::kBridgeReply, (PayloadSizeRule{2, 240, 1}))
+    YAMOR_SNP_TYPE(kGround, C::kBridgeReply, Fixed(24))
+    YAMOR_SNP_TYPE(kDivergence, C::kBridgeReply, (PayloadSizeRule{10, 240, 1}))
+    YAMOR_SNP_TYPE(kMorphologyChunk, C::kBridgeReply, (PayloadSizeRule{8, 240, 1}))
+    YAMOR_SNP_TYPE(kSimInfo, C::kBridgeReply, Fixed(24))
 #undef YAMOR_SNP_TYPE
   }
   return nullptr;

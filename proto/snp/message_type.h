@@ -34,6 +34,13 @@ enum class MessageType : uint8_t {
   kConnectModules = 0x45,     ///< Attach two modules at given connectors.
   kDisconnectModule = 0x46,   ///< Detach a module from all its neighbours.
   kResetSimulation = 0x47,    ///< Restore the initial world.
+  kSetGround = 0x48,          ///< Change friction / slope (masked); answered by Ground.
+  kSetMotorFault = 0x49,      ///< Make a motor limp, stuck or repaired.
+  kSetModuleDefect = 0x4A,    ///< Mark a whole module defective or repaired.
+  kTurnUpsideDown = 0x4B,     ///< Turn the robot upside down about its centre.
+  kGetDivergence = 0x4C,      ///< Ask whether the world diverged (and why).
+  kReadMorphology = 0x4D,     ///< Read a chunk of the current morphology XML.
+  kGetSimInfo = 0x4E,         ///< Ask for the simulation's fixed facts.
   // Bridge replies (0x60-0x7F): simulation bridge -> host only.
   kSimTime = 0x60,            ///< Reply: simulated time.
   kStepDone = 0x61,           ///< Reply: a Step finished.
@@ -41,6 +48,10 @@ enum class MessageType : uint8_t {
   kRobotPosition = 0x63,      ///< Reply: central module pose.
   kSpecialAck = 0x64,         ///< Reply: a bridge command succeeded.
   kSpecialError = 0x65,       ///< Reply: a bridge command failed (code + text).
+  kGround = 0x66,             ///< Reply: ground friction and slope now.
+  kDivergence = 0x67,         ///< Reply: divergence state.
+  kMorphologyChunk = 0x68,    ///< Reply: a chunk of the morphology XML.
+  kSimInfo = 0x69,            ///< Reply: time step and accelerometer scale.
 };
 
 /// Who may send a message type to whom (enforced on encode and decode).
@@ -62,9 +73,15 @@ inline constexpr MessageType kAllMessageTypes[] = {
     MessageType::kSetTimer,         MessageType::kGetRobotPosition,
     MessageType::kSetMasterNode,    MessageType::kConnectModules,
     MessageType::kDisconnectModule, MessageType::kResetSimulation,
+    MessageType::kSetGround,        MessageType::kSetMotorFault,
+    MessageType::kSetModuleDefect,  MessageType::kTurnUpsideDown,
+    MessageType::kGetDivergence,    MessageType::kReadMorphology,
+    MessageType::kGetSimInfo,
     MessageType::kSimTime,          MessageType::kStepDone,
     MessageType::kTimerFired,       MessageType::kRobotPosition,
     MessageType::kSpecialAck,       MessageType::kSpecialError,
+    MessageType::kGround,           MessageType::kDivergence,
+    MessageType::kMorphologyChunk,  MessageType::kSimInfo,
 };
 
 /// Allowed payload sizes of a type: min..max in steps of `step` bytes.

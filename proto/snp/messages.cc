@@ -22,6 +22,7 @@ constexpr uint8_t kOscillatorAmplitudeBit = 0x01;
 constexpr uint8_t kOscillatorOffsetBit = 0x02;
 constexpr uint8_t kOscillatorSpeedBit = 0x04;
 constexpr uint8_t kOscillatorReservedBits = 0xF8;
+constexpr uint8_t kGroundReservedBits = 0xF8;
 constexpr uint8_t kMaxStatusCode =
     static_cast<uint8_t>(StatusCode::kUnauthenticated);
 
@@ -93,10 +94,23 @@ class Writer {
               kMaxStatusCode);
   }
 
-  void Text(const std::string& value, std::string_view field) {
-    if (value.size() > kMaxErrorTextSize) {
+  void U32(uint32_t value, std::string_view) { PutLittleEndian(value, 4); }
+
+  void Bool(bool value, std::string_view field) { U8(value ? 1 : 0, field); }
+
+  void Bytes(const std::vector<uint8_t>& value, std::string_view field,
+             std::size_t max) {
+    if (value.size() > max) {
+      FailField(type_, field, "is {} bytes long, at most {} fit", value.size(), max);
+    }
+    out_.Append(value);
+  }
+
+  void Text(const std::string& value, std::string_view field,
+            std::size_t max = kMaxErrorTextSize) {
+    if (value.size() > max) {
       FailField(type_, field, "is {} bytes long, at most {} fit", value.size(),
-                kMaxErrorTextSize);
+                max);
     }
     CheckPrintable(type_, field,
                    {reinterpret_cast<const uint8_t*>(value.data()),
@@ -209,7 +223,25 @@ class Reader {
     value = static_cast<StatusCode>(raw);
   }
 
-  void Text(std::string& value, std::string_view field) {
+  void U32(uint32_t& value, std::string_view) {
+    value = static_cast<uint32_t>(GetLittleEndian(4));
+  }
+
+  void Bool(bool& value, std::string_view field) {
+    uint8_t raw = 0;
+    U8InRange(raw, field, 0, 1);
+    value = raw != 0;
+  }
+
+  // The rest of the payload (the size rule bounds it).
+  void Bytes(std::vector<uint8_t>& value, std::string_view, std::size_t) {
+    const std::span<const uint8_t> rest = in_.subspan(pos_);
+    value.assign(rest.begin(), rest.end());
+    pos_ = in_.size();
+  }
+
+  void Text(std::string& value, std::string_view field,
+            std::size_t = kMaxErrorTextSize) {
     const std::span<const uint8_t> rest = in_.subspan(pos_);
     Writer::CheckPrintable(type_, field, rest);
     value.assign(rest.begin(), rest.end());
@@ -217,6 +249,7 @@ class Reader {
   }
 
   uint32_t RawU32() { return static_cast<uint32_t>(GetLittleEndian(4)); }
+  uint64_t RawU64() { return GetLittleEndian(8); }
   std::size_t remaining() const { return in_.size() - pos_; }
   MessageType type() const { return type_; }
 
@@ -431,11 +464,99 @@ void Serialize(Io& io, M& m) {
   io.Text(m.text, "text");
 }
 
+template <class Io, Is<SetGround> M>
+void Serialize(Io& io, M& m) {
+  // A field mask, then all three float64s; absent ones are 0 bytes. A zero
+  // mask is a read-only request.
+  using Field = std::conditional_t<Io::kDecoding, std::optional<double>,
+                                   const std::optional<double>>;
+  Field* values[] = {&m.friction, &m.slope, &m.slope_direction};
+  const char* names[] = {"friction", "slope", "slope_direction"};
+  if constexpr (Io::kDecoding) {
+    uint8_t mask = 0;
+    io.U8(mask, "mask");
+    if ((mask & kGroundReservedBits) != 0) {
+      FailField(io.type(), "mask", "has reserved bits set: 0x{:02x}", mask);
+    }
+    for (int i = 0; i < 3; ++i) {
+      if ((mask & (1u << i)) != 0) {
+        double value = 0.0;
+        io.Float64(value, names[i]);
+        *values[i] = value;
+      } else {
+        if (io.RawU64() != 0) {
+          FailField(io.type(), names[i], "is absent but its bytes are not zero");
+        }
+        values[i]->reset();
+      }
+    }
+  } else {
+    uint8_t mask = 0;
+    for (int i = 0; i < 3; ++i) {
+      if (values[i]->has_value()) mask = static_cast<uint8_t>(mask | (1u << i));
+    }
+    io.U8(mask, "mask");
+    for (int i = 0; i < 3; ++i) io.Float64(values[i]->value_or(0.0), names[i]);
+  }
+}
+
+template <class Io, Is<SetMotorFault> M>
+void Serialize(Io& io, M& m) {
+  io.ModuleId(m.module, "module");
+  io.Enum(m.fault, "fault", MotorFault::kStuck);
+}
+
+template <class Io, Is<SetModuleDefect> M>
+void Serialize(Io& io, M& m) {
+  io.ModuleId(m.module, "module");
+  io.Bool(m.defective, "defective");
+}
+
+template <class Io, Is<ReadMorphology> M>
+void Serialize(Io& io, M& m) {
+  io.U32(m.offset, "offset");
+  io.U8InRange(m.length, "length", 1, static_cast<uint8_t>(kMaxMorphologyChunkSize));
+}
+
+template <class Io, Is<Ground> M>
+void Serialize(Io& io, M& m) {
+  io.Float64(m.friction, "friction");
+  io.Float64(m.slope, "slope");
+  io.Float64(m.slope_direction, "slope_direction");
+}
+
+template <class Io, Is<Divergence> M>
+void Serialize(Io& io, M& m) {
+  io.Bool(m.diverged, "diverged");
+  io.U8(m.module, "module");  // 0..254, or kNoModule
+  io.Float64(m.time, "time");
+  io.Text(m.reason, "reason", kMaxDivergenceTextSize);
+}
+
+template <class Io, Is<MorphologyChunk> M>
+void Serialize(Io& io, M& m) {
+  io.U32(m.total, "total");
+  io.U32(m.offset, "offset");
+  io.Bytes(m.data, "data", kMaxMorphologyChunkSize);
+  if (static_cast<uint64_t>(m.offset) + m.data.size() > m.total) {
+    FailField(io.type(), "data", "ends at {}, past the total of {} bytes",
+              static_cast<uint64_t>(m.offset) + m.data.size(), m.total);
+  }
+}
+
+template <class Io, Is<SimInfo> M>
+void Serialize(Io& io, M& m) {
+  io.Float64(m.time_step, "time_step");
+  io.Float64(m.accelerometer_zero, "accelerometer_zero");
+  io.Float64(m.accelerometer_count, "accelerometer_count");
+}
+
 // Messages without fields.
 template <class Io, class M>
   requires(Is<M, ClearCouplings> || Is<M, ReadServoAngle> ||
            Is<M, GetSimTime> || Is<M, GetRobotPosition> ||
-           Is<M, ResetSimulation>)
+           Is<M, ResetSimulation> || Is<M, TurnUpsideDown> ||
+           Is<M, GetDivergence> || Is<M, GetSimInfo>)
 void Serialize(Io&, M&) {}
 
 template <std::size_t I = 0>

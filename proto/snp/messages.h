@@ -54,6 +54,20 @@ inline constexpr int16_t kMaxAccelerometerCount = 1023;
 /// Longest SpecialError text in bytes (payload minus type and code bytes).
 inline constexpr std::size_t kMaxErrorTextSize = kMaxPayloadSize - 2;
 
+/// A motor fault the simulation can inject (thesis C.2.6).
+enum class MotorFault : uint8_t {
+  kNone = 0,   ///< Repaired: the servo works.
+  kLimp = 1,   ///< No torque.
+  kStuck = 2,  ///< Locked at its angle.
+};
+
+/// Wire value of "no module" in Divergence.module.
+inline constexpr uint8_t kNoModule = 255;
+/// Longest Divergence reason in bytes.
+inline constexpr std::size_t kMaxDivergenceTextSize = kMaxPayloadSize - 10;
+/// Most morphology bytes one MorphologyChunk carries.
+inline constexpr std::size_t kMaxMorphologyChunkSize = kMaxPayloadSize - 8;
+
 /// "front", "rear", "left", "right", "top", "bottom" ("unknown" otherwise).
 std::string_view ConnectorName(Connector connector);
 
@@ -223,6 +237,59 @@ struct ResetSimulation {
   friend bool operator==(const ResetSimulation&, const ResetSimulation&) = default;
 };
 
+/// Changes the ground; absent fields keep their value (all absent: read
+/// only). Answered with Ground.
+struct SetGround {
+  static constexpr MessageType kType = MessageType::kSetGround;  ///< Type code.
+  std::optional<double> friction;         ///< Coulomb coefficient.
+  std::optional<double> slope;            ///< Tilt [rad].
+  std::optional<double> slope_direction;  ///< Downhill azimuth [rad].
+  friend bool operator==(const SetGround&, const SetGround&) = default;
+};
+
+/// Sets (or repairs) the motor fault of `module`.
+struct SetMotorFault {
+  static constexpr MessageType kType = MessageType::kSetMotorFault;  ///< Type code.
+  uint8_t module = 0;                  ///< Module id (0..254).
+  MotorFault fault = MotorFault::kNone;  ///< The fault.
+  friend bool operator==(const SetMotorFault&, const SetMotorFault&) = default;
+};
+
+/// Marks `module` defective (oscillator dead, motor limp) or repaired.
+struct SetModuleDefect {
+  static constexpr MessageType kType = MessageType::kSetModuleDefect;  ///< Type code.
+  uint8_t module = 0;      ///< Module id (0..254).
+  bool defective = false;  ///< Defective or repaired.
+  friend bool operator==(const SetModuleDefect&, const SetModuleDefect&) = default;
+};
+
+/// Turns the robot upside down about its central module, at rest.
+struct TurnUpsideDown {
+  static constexpr MessageType kType = MessageType::kTurnUpsideDown;  ///< Type code.
+  friend bool operator==(const TurnUpsideDown&, const TurnUpsideDown&) = default;
+};
+
+/// Asks for the divergence state (answered with Divergence).
+struct GetDivergence {
+  static constexpr MessageType kType = MessageType::kGetDivergence;  ///< Type code.
+  friend bool operator==(const GetDivergence&, const GetDivergence&) = default;
+};
+
+/// Asks for `length` bytes of the current morphology XML from `offset`
+/// (offset 0 takes a new snapshot). Answered with MorphologyChunk.
+struct ReadMorphology {
+  static constexpr MessageType kType = MessageType::kReadMorphology;  ///< Type code.
+  uint32_t offset = 0;  ///< First byte wanted.
+  uint8_t length = 0;   ///< Bytes wanted (1..232).
+  friend bool operator==(const ReadMorphology&, const ReadMorphology&) = default;
+};
+
+/// Asks for the simulation's fixed facts (answered with SimInfo).
+struct GetSimInfo {
+  static constexpr MessageType kType = MessageType::kGetSimInfo;  ///< Type code.
+  friend bool operator==(const GetSimInfo&, const GetSimInfo&) = default;
+};
+
 // ---- Bridge replies (bridge -> host) ----------------------------------------
 
 /// The simulated time.
@@ -272,14 +339,54 @@ struct SpecialError {
   friend bool operator==(const SpecialError&, const SpecialError&) = default;
 };
 
+/// The ground as it is now.
+struct Ground {
+  static constexpr MessageType kType = MessageType::kGround;  ///< Type code.
+  double friction = 0.0;         ///< Coulomb coefficient.
+  double slope = 0.0;            ///< Tilt [rad].
+  double slope_direction = 0.0;  ///< Downhill azimuth [rad].
+  friend bool operator==(const Ground&, const Ground&) = default;
+};
+
+/// Whether the world diverged, and why.
+struct Divergence {
+  static constexpr MessageType kType = MessageType::kDivergence;  ///< Type code.
+  bool diverged = false;        ///< The world is diverged now.
+  uint8_t module = kNoModule;   ///< A module of the offending body, or kNoModule.
+  double time = 0.0;            ///< Simulated time of the divergence [s].
+  std::string reason;           ///< Printable ASCII, at most kMaxDivergenceTextSize.
+  friend bool operator==(const Divergence&, const Divergence&) = default;
+};
+
+/// A chunk of the morphology XML snapshot (docs/module.md format).
+struct MorphologyChunk {
+  static constexpr MessageType kType = MessageType::kMorphologyChunk;  ///< Type code.
+  uint32_t total = 0;          ///< Size of the whole XML text [bytes].
+  uint32_t offset = 0;         ///< Position of `data` in it.
+  std::vector<uint8_t> data;   ///< The bytes (offset + size <= total).
+  friend bool operator==(const MorphologyChunk&, const MorphologyChunk&) = default;
+};
+
+/// The simulation's fixed facts.
+struct SimInfo {
+  static constexpr MessageType kType = MessageType::kSimInfo;  ///< Type code.
+  double time_step = 0.0;             ///< Physics step [s].
+  double accelerometer_zero = 0.0;    ///< ADC count at 0 m/s².
+  double accelerometer_count = 0.0;   ///< m/s² per ADC count.
+  friend bool operator==(const SimInfo&, const SimInfo&) = default;
+};
+
 /// Any SNP message.
 using Message =
     std::variant<ConnectRequest, ConnectAck, Control, SetOscillator, SetLimits,
                  SetCoupling, ClearCouplings, ReadServoAngle, ServoAngle,
                  ReadAccelerometer, Accelerometer, Ack, GetSimTime, Step,
                  SetTimer, GetRobotPosition, SetMasterNode, ConnectModules,
-                 DisconnectModule, ResetSimulation, SimTime, StepDone,
-                 TimerFired, RobotPosition, SpecialAck, SpecialError>;
+                 DisconnectModule, ResetSimulation, SetGround, SetMotorFault,
+                 SetModuleDefect, TurnUpsideDown, GetDivergence,
+                 ReadMorphology, GetSimInfo, SimTime, StepDone, TimerFired,
+                 RobotPosition, SpecialAck, SpecialError, Ground, Divergence,
+                 MorphologyChunk, SimInfo>;
 
 /// The type code of `message`.
 MessageType TypeOf(const Message& message);

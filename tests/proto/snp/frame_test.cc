@@ -86,6 +86,24 @@ TEST(SnpFrameLayoutTest, BridgeStepIsPinned) {
                    0xE1, 0x7A, 0x84, 0x3F, 0x2F, 0xF5}));
 }
 
+TEST(SnpFrameLayoutTest, BridgeSetMotorFaultIsPinned) {
+  const Frame frame =
+      MakeFrame(Address::Host(), Address::Bridge(), SetMotorFault{3, MotorFault::kStuck});
+  EXPECT_EQ(EncodeFrame(frame), Bytes({0xA5, 0x02, 0x09, 0x00, 0x00, 0x49, 0x03, 0x02, 0xE2, 0x2F}));
+}
+
+TEST(SnpFrameLayoutTest, BridgeReadMorphologyIsPinned) {
+  const Frame frame =
+      MakeFrame(Address::Host(), Address::Bridge(), ReadMorphology{232, 232});
+  EXPECT_EQ(EncodeFrame(frame), Bytes({0xA5, 0x05, 0x09, 0x00, 0x00, 0x4D, 0xE8, 0x00, 0x00, 0x00, 0xE8, 0xC1, 0x80}));
+}
+
+TEST(SnpFrameLayoutTest, BridgeMorphologyChunkIsPinned) {
+  const Frame frame = MakeFrame(Address::Bridge(), Address::Host(),
+                                MorphologyChunk{300, 232, {'<', '/', 'r', '>'}});
+  EXPECT_EQ(EncodeFrame(frame), Bytes({0xA5, 0x0C, 0x06, 0x00, 0x00, 0x68, 0x2C, 0x01, 0x00, 0x00, 0xE8, 0x00, 0x00, 0x00, 0x3C, 0x2F, 0x72, 0x3E, 0xD1, 0x01}));
+}
+
 TEST(SnpFrameTest, EveryFrameRoundTripsThroughBytes) {
   for (const auto& sample : testing::SampleMessages()) {
     const Frame frame =

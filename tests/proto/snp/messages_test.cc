@@ -145,6 +145,67 @@ TEST(SnpMessageTest, PayloadLayoutsArePinned) {
   EXPECT_EQ(PayloadBytes(SpecialError{MessageType::kStep, StatusCode::kUnimplemented, "no"}),
             (std::vector<uint8_t>{0x41, 12, 'n', 'o'}));
   EXPECT_EQ(PayloadBytes(RobotPosition{}).size(), 64u);
+  // Bridge specials of issue 11 (docs/snp.md).
+  EXPECT_EQ(PayloadBytes(SetGround{std::nullopt, 1.0, std::nullopt}),
+            (std::vector<uint8_t>{0x02, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xF0, 0x3F,
+                                  0, 0, 0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(PayloadBytes(SetGround{}), std::vector<uint8_t>(25, 0));
+  EXPECT_EQ(PayloadBytes(SetMotorFault{3, MotorFault::kLimp}), (std::vector<uint8_t>{3, 1}));
+  EXPECT_EQ(PayloadBytes(SetModuleDefect{3, true}), (std::vector<uint8_t>{3, 1}));
+  EXPECT_EQ(PayloadBytes(ReadMorphology{0x01020304, 232}),
+            (std::vector<uint8_t>{4, 3, 2, 1, 232}));
+  EXPECT_EQ(PayloadBytes(Divergence{true, 4, 2.0, "x"}),
+            (std::vector<uint8_t>{1, 4, 0, 0, 0, 0, 0, 0, 0, 0x40, 'x'}));
+  EXPECT_EQ(PayloadBytes(MorphologyChunk{3, 1, {'a', 'b'}}),
+            (std::vector<uint8_t>{3, 0, 0, 0, 1, 0, 0, 0, 'a', 'b'}));
+  EXPECT_EQ(PayloadBytes(Ground{}).size(), 24u);
+  EXPECT_EQ(PayloadBytes(SimInfo{}).size(), 24u);
+}
+
+TEST(SnpSpecialsValidationTest, RejectBadValuesNamingTheField) {
+  EXPECT_EQ(EncodeError(SetGround{std::numeric_limits<double>::quiet_NaN(), {}, {}}),
+            "SetGround.friction is not finite: nan");
+  EXPECT_EQ(EncodeError(SetMotorFault{3, static_cast<MotorFault>(3)}),
+            "SetMotorFault.fault 3 out of range 0..2");
+  EXPECT_EQ(EncodeError(SetModuleDefect{255, false}),
+            "SetModuleDefect.module 255 out of range 0..254");
+  EXPECT_EQ(EncodeError(ReadMorphology{0, 0}), "ReadMorphology.length 0 out of range 1..232");
+  EXPECT_EQ(EncodeError(ReadMorphology{0, 233}), "ReadMorphology.length 233 out of range 1..232");
+  EXPECT_EQ(EncodeError(MorphologyChunk{1, 0, {'a', 'b'}}),
+            "MorphologyChunk.data ends at 2, past the total of 1 bytes");
+  EXPECT_EQ(EncodeError(MorphologyChunk{1000, 0, std::vector<uint8_t>(233, 'a')}),
+            "MorphologyChunk.data is 233 bytes long, at most 232 fit");
+  EXPECT_EQ(EncodeError(Divergence{true, 1, 0.0, std::string(231, 'a')}),
+            "Divergence.reason is 231 bytes long, at most 230 fit");
+  EXPECT_EQ(EncodeError(Divergence{true, 1, 0.0, "tab\there"}),
+            "Divergence.reason has non-printable byte 0x09 at 3");
+  EXPECT_EQ(EncodeError(SimInfo{std::numeric_limits<double>::infinity(), 512, 0.04}),
+            "SimInfo.time_step is not finite: inf");
+
+  std::vector<uint8_t> ground(25, 0);
+  ground[0] = 0x08;
+  EXPECT_EQ(DecodeError(MessageType::kSetGround, ground),
+            "SetGround.mask has reserved bits set: 0x08");
+  ground[0] = 0x00;
+  ground[24] = 0x01;
+  EXPECT_EQ(DecodeError(MessageType::kSetGround, ground),
+            "SetGround.slope_direction is absent but its bytes are not zero");
+  EXPECT_EQ(DecodeError(MessageType::kSetModuleDefect, {3, 2}),
+            "SetModuleDefect.defective 2 out of range 0..1");
+  EXPECT_EQ(DecodeError(MessageType::kMorphologyChunk, {1, 0, 0, 0, 1, 0, 0, 0, 'a'}),
+            "MorphologyChunk.data ends at 2, past the total of 1 bytes");
+  EXPECT_EQ(DecodeError(MessageType::kDivergence, {2, 0, 0, 0, 0, 0, 0, 0, 0, 0}),
+            "Divergence.diverged 2 out of range 0..1");
+  EXPECT_THAT(DecodeError(MessageType::kReadMorphology, {0, 0, 0, 0}),
+              HasSubstr("ReadMorphology"));
+}
+
+TEST(SnpSpecialsTest, MorphologyChunkCarriesAnyByte) {
+  MorphologyChunk chunk{256, 0, {}};
+  for (int i = 0; i < 232; ++i) chunk.data.push_back(static_cast<uint8_t>(i));
+  const Message decoded =
+      DecodeMessage(DecodeFrame(EncodeFrame(MakeFrame(Address::Bridge(), Address::Host(), chunk))));
+  EXPECT_EQ(std::get<MorphologyChunk>(decoded), chunk);
 }
 
 TEST(SnpEncodeValidationTest, RejectsNonFiniteFloatsNamingTheField) {

@@ -109,6 +109,42 @@ Message RandomOfType(MessageType type, std::mt19937_64& rng) {
     case MessageType::kDisconnectModule:
       return DisconnectModule{RandomModule(rng)};
     case MessageType::kResetSimulation: return ResetSimulation{};
+    case MessageType::kSetGround: {
+      SetGround m;
+      const uint64_t mask = rng() % 8;
+      if (mask & 1) m.friction = RandomDouble(rng);
+      if (mask & 2) m.slope = RandomDouble(rng);
+      if (mask & 4) m.slope_direction = RandomDouble(rng);
+      return m;
+    }
+    case MessageType::kSetMotorFault:
+      return SetMotorFault{RandomModule(rng), RandomEnum(rng, MotorFault::kStuck)};
+    case MessageType::kSetModuleDefect:
+      return SetModuleDefect{RandomModule(rng), rng() % 2 == 0};
+    case MessageType::kTurnUpsideDown: return TurnUpsideDown{};
+    case MessageType::kGetDivergence: return GetDivergence{};
+    case MessageType::kReadMorphology:
+      return ReadMorphology{static_cast<uint32_t>(rng()),
+                            static_cast<uint8_t>(1 + rng() % kMaxMorphologyChunkSize)};
+    case MessageType::kGetSimInfo: return GetSimInfo{};
+    case MessageType::kGround:
+      return Ground{RandomDouble(rng), RandomDouble(rng), RandomDouble(rng)};
+    case MessageType::kDivergence: {
+      Divergence m{rng() % 2 == 0, static_cast<uint8_t>(rng()), RandomDouble(rng), {}};
+      m.reason.resize(rng() % (kMaxDivergenceTextSize + 1));
+      for (char& c : m.reason) c = static_cast<char>(0x20 + rng() % 95);
+      return m;
+    }
+    case MessageType::kMorphologyChunk: {
+      MorphologyChunk m;
+      m.data.resize(rng() % (kMaxMorphologyChunkSize + 1));
+      for (uint8_t& b : m.data) b = static_cast<uint8_t>(rng());
+      m.offset = static_cast<uint32_t>(rng() % 100000);
+      m.total = m.offset + static_cast<uint32_t>(m.data.size() + rng() % 1000);
+      return m;
+    }
+    case MessageType::kSimInfo:
+      return SimInfo{RandomDouble(rng), RandomDouble(rng), RandomDouble(rng)};
     case MessageType::kSimTime: return SimTime{RandomDouble(rng)};
     case MessageType::kStepDone: return StepDone{RandomDouble(rng)};
     case MessageType::kTimerFired:
@@ -173,11 +209,25 @@ std::vector<AddressedMessage> SampleMessages() {
       {host, bridge, ConnectModules{1, Connector::kRear, 2, Connector::kTop, 23}},
       {host, bridge, DisconnectModule{254}},
       {host, bridge, ResetSimulation{}},
+      {host, bridge, SetGround{0.4, std::nullopt, 1.5}},
+      {host, bridge, SetGround{}},
+      {host, bridge, SetMotorFault{3, MotorFault::kStuck}},
+      {host, bridge, SetModuleDefect{254, true}},
+      {host, bridge, TurnUpsideDown{}},
+      {host, bridge, GetDivergence{}},
+      {host, bridge, ReadMorphology{464, 232}},
+      {host, bridge, GetSimInfo{}},
       {bridge, host, SimTime{20.004}},
       {bridge, host, StepDone{20.014}},
       {bridge, host, TimerFired{7, 32.5}},
       {bridge, host, RobotPosition{8.0, {0.25, -1.5, 0.05}, {0.7071067811865476, 0, 0, 0.7071067811865476}}},
       {bridge, host, SpecialAck{MessageType::kResetSimulation}},
+      {bridge, host, Ground{1.0, 0.1, -3.0}},
+      {bridge, host, Divergence{}},
+      {bridge, host, Divergence{true, 4, 12.5, "non-finite body state"}},
+      {bridge, host, MorphologyChunk{5, 0, {'<', 'r', '/', '>', '\n'}}},
+      {bridge, host, MorphologyChunk{300, 68, std::vector<uint8_t>(kMaxMorphologyChunkSize, 0x00)}},
+      {bridge, host, SimInfo{0.001, 512.0, 0.0395}},
       {bridge, host, SpecialError{MessageType::kConnectModules, StatusCode::kUnimplemented,
                                   "manual assembly required"}},
       {bridge, host, SpecialError{MessageType::kStep, StatusCode::kInvalidArgument,
