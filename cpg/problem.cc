@@ -22,6 +22,16 @@ std::string Id(ModuleId id) { return std::to_string(id); }
 std::string PhaseName(ModuleId from, ModuleId to) { return "phase." + Id(from) + "." + Id(to); }
 std::string EdgeName(const NetworkEdge& e) { return Id(e.u) + "-" + Id(e.v); }
 
+// " 1 2 3" for a list of ids.
+std::string SpacedIds(const std::vector<ModuleId>& ids) {
+  std::string out;
+  for (ModuleId id : ids) {
+    out += ' ';
+    out += Id(id);
+  }
+  return out;
+}
+
 // Where an edge's phase comes from: x_e = sign·y_class + pi·π.
 struct EdgeTie {
   int cls = 0;
@@ -548,20 +558,11 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   out.network = BuildNetwork(graph, options.network);
   const CpgNetwork& net = out.network;
   if (!net.ignored.empty()) {
-    std::string ids;
-    for (ModuleId id : net.ignored) {
-      ids += ' ';
-      ids += Id(id);
-    }
-    out.notes.push_back("modules" + ids + " are not connected to the largest piece and are ignored");
+    out.notes.push_back("modules" + SpacedIds(net.ignored) + " are not connected to the largest piece and are ignored");
   }
   if (!net.passive.empty()) {
-    std::string ids;
-    for (ModuleId id : net.passive) {
-      ids += ' ';
-      ids += Id(id);
-    }
-    out.notes.push_back("passive modules" + ids + " have no oscillator; the network couples across them");
+    out.notes.push_back("passive modules" + SpacedIds(net.passive) +
+                        " have no oscillator; the network couples across them");
   }
   const std::set<ModuleId> driven = [&] {
     std::set<ModuleId> s;

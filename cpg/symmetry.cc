@@ -167,23 +167,17 @@ NautyResult RunNauty(const ColouredGraph& cg, bool digraph, bool canon) {
   std::vector<setword> cg_out(canon ? static_cast<size_t>(m) * n : 1, 0);
   std::lock_guard lock(NautyMutex());
   nauty_check(WORDSIZE, m, n, NAUTYVERSIONID);
-  if (digraph) {
-    DEFAULTOPTIONS_DIGRAPH(options);
-    options.defaultptn = FALSE;
-    options.getcanon = canon ? TRUE : FALSE;
-    options.userautomproc = CollectAutomorphism;
-    collected_generators = &out.generators;
-    densenauty(g.data(), lab.data(), ptn.data(), orbits.data(), &options, &stats, m, n,
-               canon ? cg_out.data() : nullptr);
-  } else {
-    DEFAULTOPTIONS_GRAPH(options);
-    options.defaultptn = FALSE;
-    options.getcanon = canon ? TRUE : FALSE;
-    options.userautomproc = CollectAutomorphism;
-    collected_generators = &out.generators;
-    densenauty(g.data(), lab.data(), ptn.data(), orbits.data(), &options, &stats, m, n,
-               canon ? cg_out.data() : nullptr);
-  }
+  // nauty's two default option sets differ only in the digraph flag and the
+  // vertex invariant a digraph needs.
+  DEFAULTOPTIONS_GRAPH(graph_options);
+  DEFAULTOPTIONS_DIGRAPH(digraph_options);
+  optionblk options = digraph ? digraph_options : graph_options;
+  options.defaultptn = FALSE;
+  options.getcanon = canon ? TRUE : FALSE;
+  options.userautomproc = CollectAutomorphism;
+  collected_generators = &out.generators;
+  densenauty(g.data(), lab.data(), ptn.data(), orbits.data(), &options, &stats, m, n,
+             canon ? cg_out.data() : nullptr);
   collected_generators = nullptr;
   out.group_size = stats.grpsize1 * std::pow(10.0, stats.grpsize2);
   out.lab = lab;
