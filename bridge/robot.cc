@@ -31,6 +31,7 @@ using snp::Address;
 constexpr double kMaxSpeedHz = 10.0;
 constexpr double kMaxAngleMagnitude = 2.0 * M_PI;
 constexpr double kMaxCouplingWeight = 1000.0;
+constexpr double kMaxGroundFriction = 100.0;
 
 // The accelerometer board samples at 100 Hz; reads return recent samples.
 constexpr double kAccelerometerPeriod = 0.01;
@@ -89,6 +90,8 @@ void Robot::PowerOn() {
 
 void Robot::Reset() {
   world_.Reset();
+  slope_ = 0.0;
+  slope_direction_ = 0.0;
   PowerOn();
 }
 
@@ -355,6 +358,56 @@ void Robot::HandleBridgeCommand(const snp::Message& message, std::vector<snp::Fr
     } else if (std::holds_alternative<snp::ResetSimulation>(message)) {
       Reset();
       reply(snp::SpecialAck{.acked = type});
+    } else if (const auto* m = std::get_if<snp::SetGround>(&message)) {
+      if (m->friction && !(*m->friction > 0.0 && *m->friction <= kMaxGroundFriction)) {
+        fail(StatusCode::kOutOfRange, "ground friction " + std::to_string(*m->friction) +
+                                          " is outside (0, 100]");
+        return;
+      }
+      const double slope = m->slope.value_or(slope_);
+      const double direction = m->slope_direction.value_or(slope_direction_);
+      if (m->slope || m->slope_direction) world_.SetSlope(slope, direction);  // validates
+      if (m->friction) world_.SetGroundFriction(*m->friction);
+      slope_ = slope;
+      slope_direction_ = direction;
+      reply(snp::Ground{.friction = world_.GroundFriction(),
+                        .slope = slope_,
+                        .slope_direction = slope_direction_});
+    } else if (const auto* m = std::get_if<snp::SetMotorFault>(&message)) {
+      Firmware(m->module);  // NOT_FOUND for a module not in the robot
+      physics::MotorFault fault = physics::MotorFault::kNone;
+      if (m->fault == snp::MotorFault::kLimp) fault = physics::MotorFault::kLimp;
+      if (m->fault == snp::MotorFault::kStuck) fault = physics::MotorFault::kStuck;
+      world_.SetMotorFault(m->module, fault);
+      reply(snp::SpecialAck{.acked = type});
+    } else if (const auto* m = std::get_if<snp::SetModuleDefect>(&message)) {
+      SetModuleDefect(m->module, m->defective);
+      reply(snp::SpecialAck{.acked = type});
+    } else if (std::holds_alternative<snp::TurnUpsideDown>(message)) {
+      world_.TurnUpsideDown();
+      reply(snp::SpecialAck{.acked = type});
+    } else if (std::holds_alternative<snp::GetDivergence>(message)) {
+      snp::Divergence d{.diverged = world_.Diverged(), .time = Time()};
+      if (d.diverged) {
+        const physics::DivergenceInfo& info = world_.Divergence();
+        if (info.module_id >= 0 && info.module_id <= snp::kMaxModuleId) {
+          d.module = static_cast<uint8_t>(info.module_id);
+        }
+        d.reason = info.reason.substr(0, snp::kMaxDivergenceTextSize);
+        for (char& c : d.reason) {
+          if (c < 0x20 || c > 0x7e) c = '?';
+        }
+      }
+      reply(d);
+    } else if (std::holds_alternative<snp::ReadMorphology>(message)) {
+      // Needs physics::World::CurrentMorphology (the concurrent "current
+      // morphology" fix); until it lands the readback is not offered.
+      fail(StatusCode::kUnimplemented, "morphology readback is not available yet");
+    } else if (std::holds_alternative<snp::GetSimInfo>(message)) {
+      const physics::AccelerometerSpec& spec = world_.options().accelerometer;
+      reply(snp::SimInfo{.time_step = world_.options().time_step,
+                         .accelerometer_zero = static_cast<double>(spec.zero_count),
+                         .accelerometer_count = spec.count_size});
     } else {
       fail(StatusCode::kInvalidArgument, "not a bridge command");
     }

@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "cpg/network.h"
@@ -72,7 +73,9 @@ struct RobotStats {
 /// modules are dropped, as on the real robot, and the host times out.
 /// Broadcast module messages are applied by every reachable module and not
 /// acknowledged. Bridge commands (simulated time, step, timers, position,
-/// master node, connect/disconnect, reset) are answered by the bridge.
+/// master node, connect/disconnect, reset, ground, motor and module defects,
+/// upside down, divergence, morphology readback, simulation facts; docs/snp.md)
+/// are answered by the bridge.
 ///
 /// Thread-safety: not thread-safe. One owner thread drives a Robot; distinct
 /// Robot instances share nothing and may run on different threads.
@@ -145,6 +148,8 @@ class Robot {
   cpg::NetworkState network_state_;
   std::vector<std::optional<double>> set_points_;
 
+  double slope_ = 0.0;            // ground tilt set by SetGround [rad]
+  double slope_direction_ = 0.0;  // its downhill azimuth [rad]
   std::multimap<double, uint8_t> timers_;  // due time -> timer id
   // Recent accelerometer samples per module whose UART is on, oldest first.
   std::map<int, std::deque<physics::AccelerometerReading>> accelerometer_history_;

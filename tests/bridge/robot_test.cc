@@ -415,5 +415,67 @@ TEST(BridgeRobotTest, ConfigurationFramesLinkParentsFirst) {
   EXPECT_EQ(linked.size(), config.modules.size());
 }
 
+// ---- Bridge specials of issue 11 (docs/snp.md 0x48-0x4E) -------------------
+
+TEST(BridgeSpecialsTest, GroundKeepsAbsentFieldsAndAnswersTheGroundNow) {
+  Robot robot(SnakeMorphology());
+  auto g = SendExpect<snp::Ground>(robot, ToBridge(snp::SetGround{.friction = 0.4}));
+  EXPECT_EQ(g, (snp::Ground{0.4, 0.0, 0.0}));
+  EXPECT_EQ(robot.world().GroundFriction(), 0.4);
+  g = SendExpect<snp::Ground>(robot, ToBridge(snp::SetGround{.slope = 0.2}));
+  EXPECT_EQ(g, (snp::Ground{0.4, 0.2, 0.0}));
+  g = SendExpect<snp::Ground>(robot, ToBridge(snp::SetGround{.slope_direction = 1.0}));
+  EXPECT_EQ(g, (snp::Ground{0.4, 0.2, 1.0}));
+  g = SendExpect<snp::Ground>(robot, ToBridge(snp::SetGround{}));  // read only
+  EXPECT_EQ(g, (snp::Ground{0.4, 0.2, 1.0}));
+  auto error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::SetGround{.slope = 2.0}));
+  EXPECT_EQ(error.code, StatusCode::kOutOfRange);
+  error = SendExpect<snp::SpecialError>(robot, ToBridge(snp::SetGround{.friction = 0.0}));
+  EXPECT_EQ(error.code, StatusCode::kOutOfRange);
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::ResetSimulation{}));
+  g = SendExpect<snp::Ground>(robot, ToBridge(snp::SetGround{}));
+  EXPECT_EQ(g.slope, 0.0);
+}
+
+TEST(BridgeSpecialsTest, MotorAndModuleDefectsReachTheWorld) {
+  Robot robot(SnakeMorphology());
+  SendExpect<snp::SpecialAck>(
+      robot, ToBridge(snp::SetMotorFault{.module = 3, .fault = snp::MotorFault::kLimp}));
+  EXPECT_EQ(robot.world().GetMotorFault(3), physics::MotorFault::kLimp);
+  SendExpect<snp::SpecialAck>(
+      robot, ToBridge(snp::SetMotorFault{.module = 3, .fault = snp::MotorFault::kNone}));
+  EXPECT_EQ(robot.world().GetMotorFault(3), physics::MotorFault::kNone);
+  SendExpect<snp::SpecialAck>(robot,
+                              ToBridge(snp::SetModuleDefect{.module = 4, .defective = true}));
+  EXPECT_TRUE(robot.Firmware(4).oscillator_dead);
+  EXPECT_TRUE(robot.world().ModuleDefective(4));
+  auto error = SendExpect<snp::SpecialError>(
+      robot, ToBridge(snp::SetMotorFault{.module = 77, .fault = snp::MotorFault::kStuck}));
+  EXPECT_EQ(error.code, StatusCode::kNotFound);
+  error = SendExpect<snp::SpecialError>(robot,
+                                        ToBridge(snp::SetModuleDefect{.module = 77}));
+  EXPECT_EQ(error.code, StatusCode::kNotFound);
+}
+
+TEST(BridgeSpecialsTest, UpsideDownDivergenceAndSimInfo) {
+  Robot robot(SnakeMorphology());
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::TurnUpsideDown{}));
+  auto d = SendExpect<snp::Divergence>(robot, ToBridge(snp::GetDivergence{}));
+  EXPECT_FALSE(d.diverged);
+  EXPECT_EQ(d.module, snp::kNoModule);
+  EXPECT_TRUE(d.reason.empty());
+  robot.world().InjectNonFiniteForTesting(2);
+  std::vector<snp::Frame> events;
+  robot.StepOnce(events);
+  d = SendExpect<snp::Divergence>(robot, ToBridge(snp::GetDivergence{}));
+  EXPECT_TRUE(d.diverged);
+  EXPECT_FALSE(d.reason.empty());
+  EXPECT_EQ(d.time, robot.Time());
+  const auto info = SendExpect<snp::SimInfo>(robot, ToBridge(snp::GetSimInfo{}));
+  EXPECT_EQ(info.time_step, robot.world().options().time_step);
+  EXPECT_EQ(info.accelerometer_zero, robot.world().options().accelerometer.zero_count);
+  EXPECT_EQ(info.accelerometer_count, robot.world().options().accelerometer.count_size);
+}
+
 }  // namespace
 }  // namespace yamor::bridge
