@@ -2,8 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include "bridge/bridge_transport.h"
+#include "common/status.h"
+
 #include <cmath>
+#include <chrono>
+#include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <random>
 #include <string>
@@ -281,6 +287,62 @@ TEST(BridgeServer, ConcurrentFeedAdvanceAndStatsAreSerialised) {
     last = t;
   }
   EXPECT_NEAR(server.Time(), 200 * dt, 1e-9);
+}
+
+
+TEST(BridgeTransport, ParsesTcpEndpoints) {
+  auto parse = [](const std::string& text) {
+    TransportOptions options;
+    ParseTcpEndpoint(text, options);
+    return options.tcp_host + " " + std::to_string(options.tcp_port);
+  };
+  EXPECT_EQ(parse(""), "127.0.0.1 2223");
+  EXPECT_EQ(parse("0"), "127.0.0.1 0");
+  EXPECT_EQ(parse("2224"), "127.0.0.1 2224");
+  EXPECT_EQ(parse("0.0.0.0:2223"), "0.0.0.0 2223");
+  EXPECT_EQ(parse("[::1]:9"), "::1 9");
+  for (const char* bad : {"abc", "65536", "host:", ":12", "1:2:x", "-1", "123456"}) {
+    TransportOptions options;
+    EXPECT_THROW(ParseTcpEndpoint(bad, options), Error) << bad;
+  }
+}
+
+TEST(BridgeTransport, TcpBindsAnEphemeralPortAndStopsFromAnotherThread) {
+  BridgeServer server(Quadruped());
+  TransportOptions options{.kind = TransportOptions::Kind::kTcp, .tcp_port = 0};
+  BridgeTransport transport(server, options);
+  ASSERT_GT(transport.Port(), 0);
+  EXPECT_EQ(transport.Endpoint(), "tcp 127.0.0.1:" + std::to_string(transport.Port()));
+  // The port is taken: a second bridge on it fails with a clear error.
+  TransportOptions same = options;
+  same.tcp_port = transport.Port();
+  try {
+    BridgeTransport clash(server, same);
+    ADD_FAILURE() << "bound a port in use";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kUnavailable);
+    EXPECT_NE(std::string(e.what()).find("cannot listen on 127.0.0.1:"), std::string::npos)
+        << e.what();
+  }
+  std::thread stopper([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    transport.Stop();
+  });
+  EXPECT_EQ(transport.Run(/*stop_on_signals=*/false), 0);
+  stopper.join();
+}
+
+TEST(BridgeTransport, PtyHasARawSlaveAndRefusesToReplaceAFile) {
+  BridgeServer server(Quadruped());
+  BridgeTransport transport(server, TransportOptions{});
+  EXPECT_EQ(transport.SlavePath().rfind("/dev/pts/", 0), 0u) << transport.SlavePath();
+  EXPECT_EQ(transport.Endpoint(), "pty " + transport.SlavePath());
+  const std::string file = ::testing::TempDir() + "yamor_bridge_not_a_link";
+  { std::ofstream(file) << "x"; }
+  TransportOptions with_link;
+  with_link.link = file;
+  EXPECT_THROW(BridgeTransport(server, with_link), Error);
+  std::remove(file.c_str());
 }
 
 }  // namespace
