@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <functional>
 #include <map>
 #include <numbers>
 #include <random>
@@ -181,10 +182,8 @@ PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vect
       std::string names;
       for (int e = 0; e < m; ++e) {
         if (ties[e].cls != cls) continue;
-        if (!names.empty()) {
-      names += ' ';
-      names += EdgeName(edges[e]);
-    }
+        if (!names.empty()) names += ' ';
+        names += EdgeName(edges[e]);
         ties[e] = {.cls = next++, .sign = 1, .pi = 0};
       }
       sol.untied.push_back("couplings " + names + " are symmetric but not tied: " + why);
@@ -729,9 +728,9 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     std::string es;
     for (int e = 0; e < m; ++e) {
       if (sol.ties[e].cls == cls) {
-      es += ' ';
-      es += EdgeName(net.edges[e]);
-    }
+        es += ' ';
+        es += EdgeName(net.edges[e]);
+      }
     }
     phases.push_back({{names[cls], 0.0, 2 * kPi, "phase of coupling(s)" + es}, 1});
   }
@@ -749,24 +748,42 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     fixed_params.push_back(offsets.back().param.param);
     offsets.pop_back();
   }
-  bool amplitudes_merged = false;
-  if (total() > budget && amplitudes.size() > 1) {
-    // One amplitude for every driven module: the representative is the
-    // smallest id, its bound the tightest of all.
-    Candidate merged = amplitudes.front();
-    std::map<ModuleId, std::vector<ModuleId>> one;
-    const ModuleId rep = amplitude_classes.begin()->first;
-    for (const auto& [r, members] : amplitude_classes) {
-      one[rep].insert(one[rep].end(), members.begin(), members.end());
+  // Ties amplitude classes with the same key into one each: the
+  // representative is the group's smallest id, its bound the tightest.
+  auto merge_amplitudes = [&](const std::function<std::pair<double, double>(ModuleId)>& key,
+                              const std::string& what) {
+    std::map<std::pair<double, double>, std::vector<ModuleId>> groups;  // key -> class reps
+    for (const auto& [rep, members] : amplitude_classes) groups[key(rep)].push_back(rep);
+    if (groups.size() == amplitude_classes.size()) return;  // nothing to tie
+    std::map<ModuleId, std::vector<ModuleId>> merged_classes;
+    std::vector<Candidate> merged;
+    for (const auto& [k, reps] : groups) {
+      const ModuleId rep = *std::min_element(reps.begin(), reps.end());
+      std::vector<ModuleId>& members = merged_classes[rep];
+      double max = kPi / 2;
+      for (ModuleId r : reps) {
+        members.insert(members.end(), amplitude_classes.at(r).begin(), amplitude_classes.at(r).end());
+        max = std::min(max, AmplitudeMax(*out.robot.FindModule(r)));
+      }
+      std::sort(members.begin(), members.end());
+      std::string note = "amplitude of module(s)" + members_text(members);
+      if (reps.size() > 1) {
+        note += " (tied by the budget rule)";
+        out.notes.push_back("the budget rule ties the amplitudes of" + members_text(members) + " (" + what +
+                            ") to amplitude." + Id(rep));
+      }
+      merged.push_back({{"amplitude." + Id(rep), 0.0, max, note}, 2});
     }
-    for (const Candidate& c : amplitudes) merged.param.max = std::min(merged.param.max, c.param.max);
-    std::sort(one[rep].begin(), one[rep].end());
-    merged.param.note = "amplitude of module(s)" + members_text(one[rep]) + " (tied by the budget rule)";
-    amplitude_classes = one;
-    amplitudes = {merged};
-    amplitudes_merged = true;
-    out.notes.push_back("the budget rule ties every amplitude to amplitude." + Id(rep));
+    amplitude_classes = std::move(merged_classes);
+    amplitudes = std::move(merged);
+  };
+  if (total() > budget) {
+    merge_amplitudes([&](ModuleId id) {
+      const ModuleParams& p = *out.robot.FindModule(id);
+      return std::pair{p.min_angle, p.max_angle};
+    }, "same limit angles");
   }
+  if (total() > budget) merge_amplitudes([](ModuleId) { return std::pair{0.0, 0.0}; }, "every driven module");
   while (total() > budget && !phases.empty()) {
     fixed_params.push_back(phases.back().param.param);
     phases.pop_back();
@@ -775,7 +792,6 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     fixed_params.push_back(amplitudes.back().param.param);
     amplitudes.pop_back();
   }
-  (void)amplitudes_merged;
 
   // Tied members start where their representative is.
   for (const auto& [rep, members] : amplitude_classes) {
