@@ -443,7 +443,7 @@ void RobotDriver::ResetSimulation() {
 
 physics::Morphology RobotDriver::GetMorphology() const {
   Lock lock(mutex_, lock_waiters_);
-  return RequireSimulatedRobotLocked("GetMorphology").world().morphology();
+  return RequireSimulatedRobotLocked("GetMorphology").world().CurrentMorphology();
 }
 
 // ---- Configuration ---------------------------------------------------------------

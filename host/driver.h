@@ -186,7 +186,10 @@ class RobotDriver {
   /// Restores the simulation to its state when opened (time 0, power-on,
   /// not connected; defects and ground changes cleared).
   void ResetSimulation();
-  /// The open world's morphology (simulation ids); FAILED_PRECONDITION
+  /// The open world's morphology as the robot is now, after ConnectModules,
+  /// DisconnectModule and scripts (physics::World::CurrentMorphology;
+  /// simulation ids). FAILED_PRECONDITION without an open simulation or when
+  /// the current body has no valid morphology; UNIMPLEMENTED on a backend
   /// without a simulated robot.
   physics::Morphology GetMorphology() const;
 

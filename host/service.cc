@@ -504,11 +504,15 @@ grpc::Status HostServiceImpl::Evaluate(grpc::ServerContext* context,
     std::optional<cpg::RobotConfig> config;
     if (request->world().empty() && request->morphology_xml().empty()) {
       try {
-        morphology = driver_.GetMorphology();  // the open world
+        morphology = driver_.GetMorphology();  // the open world, as the robot is now
       } catch (const Error& e) {
-        if (e.code() != StatusCode::kFailedPrecondition && e.code() != StatusCode::kUnimplemented) {
-          throw;
-        }
+        // No simulated world open: the default world. An open world whose
+        // current body is invalid is the caller's error, not a reason to
+        // evaluate another body.
+        const bool no_world = e.code() == StatusCode::kUnimplemented ||
+                              (e.code() == StatusCode::kFailedPrecondition &&
+                               !driver_.SimulationModeEnabled());
+        if (!no_world) throw;
       }
     }
     if (!morphology || !request->config_xml().empty()) {

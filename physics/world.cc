@@ -784,6 +784,53 @@ World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
 const Morphology& World::morphology() const { return impl_->morphology; }
+
+Morphology World::CurrentMorphology() const {
+  const Impl& w = *impl_;
+  const Morphology& initial = w.morphology;
+  auto in_robot = [&w](int id) { return w.State(id).presence == ModulePresence::kInRobot; };
+  auto same_link = [](const MorphologyConnection& a, const MorphologyConnection& b) {
+    return a.from == b.from && a.from_connector == b.from_connector && a.to == b.to &&
+           a.to_connector == b.to_connector && a.angle_steps == b.angle_steps;
+  };
+  bool unchanged = w.connections.size() == initial.connections().size();
+  for (size_t i = 0; unchanged && i < w.connections.size(); ++i) {
+    unchanged = same_link(w.connections[i], initial.connections()[i]);
+  }
+  for (const MorphologyModule& m : initial.modules()) {
+    unchanged = unchanged && m.free == !in_robot(m.id);
+  }
+  if (unchanged) return initial;
+
+  std::vector<MorphologyModule> modules;
+  modules.reserve(initial.modules().size());
+  for (const MorphologyModule& m : initial.modules()) {
+    MorphologyModule current = m;
+    current.line = 0;
+    current.free = !in_robot(m.id);
+    if (current.free) current.angle_degrees = 0.0;  // a spare takes no angle
+    modules.push_back(current);
+  }
+  // A link with one end in the robot has both there; links among loose
+  // modules are not part of the robot.
+  std::vector<MorphologyConnection> connections;
+  for (const MorphologyConnection& c : w.connections) {
+    if (!in_robot(c.from)) continue;
+    MorphologyConnection current = c;
+    current.line = 0;
+    connections.push_back(current);
+  }
+  try {
+    return Morphology::Build(initial.central(), std::move(modules), std::move(connections),
+                             initial.orientation_degrees(), initial.source() + ", reconfigured");
+  } catch (const Error& e) {
+    throw Error(StatusCode::kFailedPrecondition,
+                std::string("the robot as it is now has no valid morphology at its starting "
+                            "angles: ") +
+                    e.what());
+  }
+}
+
 const WorldOptions& World::options() const { return impl_->options; }
 
 void World::Step() { impl_->Step(); }

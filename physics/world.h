@@ -90,8 +90,17 @@ class World {
   World(const World&) = delete;
   World& operator=(const World&) = delete;
 
-  /// The morphology the world was built from (the initial state).
+  /// The morphology the world was built from (the initial state); see
+  /// CurrentMorphology() for the robot as it is now.
   const Morphology& morphology() const;
+  /// The robot as it is now, validated: the initial modules, central module and
+  /// orientation with the current Connections() of the robot; modules not in the
+  /// robot (put away or loose) are `free` and links between loose modules are
+  /// left out; each module at its initial starting angle (a free one at 0). The
+  /// initial morphology itself while nothing changed. kFailedPrecondition (naming
+  /// why) when that graph does not place at the starting angles (overlap, loop).
+  /// Reads only; the class's one-thread-at-a-time rule applies.
+  Morphology CurrentMorphology() const;
   /// The options the world was built with.
   const WorldOptions& options() const;
 

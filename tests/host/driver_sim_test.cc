@@ -12,6 +12,7 @@
 #include "host/evaluator.h"
 #include "host/sim_backend.h"
 #include "host/worlds.h"
+#include "physics/script.h"
 #include "physics/world.h"
 #include "tests/host/test_util.h"
 
@@ -240,6 +241,65 @@ TEST(DriverSimTest, FreeRunAdvancesTheWorldOnItsOwn) {
   const double stopped = driver.ElapsedTime();
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   EXPECT_DOUBLE_EQ(driver.ElapsedTime(), stopped) << "free-run off: the world waits";
+}
+
+// Issue 12 §0: GetMorphology is the robot as it is now, not the world's
+// initial body.
+TEST(DriverSimTest, GetMorphologyIsTheRobotAsItIsNow) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  const physics::Morphology initial = Quadruped().morphology;
+  driver.OpenSimulation(Quadruped());
+  const std::string before = driver.GetMorphology().ToXml();
+  EXPECT_EQ(before, initial.ToXml());
+
+  driver.DisconnectModule(7);
+  physics::Morphology now = driver.GetMorphology();
+  EXPECT_TRUE(now.Module(7).free);
+  EXPECT_EQ(now.connections().size(), 7u);
+  driver.ConnectModules(7, snp::Connector::kFront, 5, snp::Connector::kRear, 0);
+  now = driver.GetMorphology();
+  EXPECT_FALSE(now.Module(7).free);
+  EXPECT_EQ(now.connections().back().to, 5);
+  driver.ResetSimulation();
+  EXPECT_EQ(driver.GetMorphology().ToXml(), before) << "Reset restores the initial body";
+
+  const std::string script = testing::ReadSourceFile("configs/scripts/quadruped-transform.xml");
+  ASSERT_FALSE(script.empty());
+  driver.ConnectRobot(0.0, false, nullptr);
+  driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
+  driver.RunTransformationScript(script, nullptr);
+  const physics::Morphology after = driver.GetMorphology();
+  EXPECT_NE(after.ToXml(), before);
+  auto has_link = [&](int from, int to) {
+    for (const physics::MorphologyConnection& c : after.connections()) {
+      if (c.from == from && c.to == to) return true;
+    }
+    return false;
+  };
+  EXPECT_TRUE(has_link(7, 5));
+  EXPECT_TRUE(has_link(8, 6));
+  EXPECT_FALSE(has_link(7, 2));
+  EXPECT_FALSE(has_link(8, 3));
+  for (const physics::MorphologyModule& m : after.modules()) EXPECT_FALSE(m.free) << m.id;
+  // The script run on a world of its own gives the same body.
+  physics::World reference(initial);
+  physics::RunScript(reference, physics::TransformationScript::Parse(script, "script"));
+  EXPECT_EQ(after.ToXml(), reference.CurrentMorphology().ToXml());
+}
+
+TEST(DriverSimTest, ABodyWithoutAValidMorphologyIsAFailedPrecondition) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  auto backend = std::make_unique<SimBackend>(testing::SnakeWithSpares(), bridge::RobotOptions{});
+  physics::World& world = backend->SimulatedRobot()->world();
+  driver.AttachBackend(std::move(backend), "snake+spares");
+  testing::MakeUnplaceable(world);
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { driver.GetMorphology(); }, &message), StatusCode::kFailedPrecondition);
+  EXPECT_NE(message.find("starting angles"), std::string::npos) << message;
+  EXPECT_NE(message.find("overlaps"), std::string::npos) << message;
+  driver.Sleep(0.2, false, nullptr);  // the robot itself is fine
+  driver.DisconnectModule(10);
+  EXPECT_TRUE(driver.GetMorphology().Module(10).free);
 }
 
 // ---- Evaluate ----------------------------------------------------------------------

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "host/service.h"
+#include "host/sim_backend.h"
 #include "host/worlds.h"
 #include "tests/host/grpc_util.h"
 #include "tests/host/test_util.h"
@@ -328,6 +329,82 @@ TEST_F(ServiceTest, ParallelEvaluationsBothSucceed) {
   EXPECT_OK(sa);
   EXPECT_OK(sb);
   EXPECT_EQ(a.velocity(), b.velocity());
+}
+
+// Issue 12 §0: after a transformation, GetMorphology and an Evaluate on the
+// open world use the robot as it is now.
+TEST_F(ServiceTest, GetMorphologyAndEvaluateUseTheTransformedRobot) {
+  v1::Host::Stub& stub = *stub_;
+  v1::EvaluateRequest evaluate;  // on the open world
+  evaluate.set_warmup(1.0);
+  evaluate.set_duration(2.0);
+  evaluate.set_seed(4);
+  v1::GetMorphologyResponse before;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::GetMorphology, Empty(), &before));
+  v1::EvaluateResponse old_body;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, evaluate, &old_body));
+
+  v1::RunTransformationScriptRequest script;
+  script.set_script_xml(testing::ReadSourceFile("configs/scripts/quadruped-transform.xml"));
+  ASSERT_FALSE(script.script_xml().empty());
+  EXPECT_OK(Call(stub, &v1::Host::Stub::RunTransformationScript, script));
+  v1::GetMorphologyResponse after;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::GetMorphology, Empty(), &after));
+  EXPECT_NE(after.morphology_xml(), before.morphology_xml());
+  const std::string& xml = after.morphology_xml();
+  EXPECT_NE(xml.find(R"(idfrom="7" connfrom="front" idto="5" connto="rear")"), std::string::npos)
+      << xml;
+  EXPECT_NE(xml.find(R"(idfrom="8" connfrom="front" idto="6" connto="rear")"), std::string::npos)
+      << xml;
+  EXPECT_EQ(xml.find(R"(idfrom="7" connfrom="front" idto="2")"), std::string::npos) << xml;
+  EXPECT_EQ(xml.find(R"(idfrom="8" connfrom="front" idto="3")"), std::string::npos) << xml;
+  EXPECT_EQ(after.central_module(), 4u);
+
+  v1::EvaluateResponse new_body;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, evaluate, &new_body));
+  EXPECT_FALSE(old_body.diverged());
+  EXPECT_FALSE(new_body.diverged());
+  EXPECT_NE(new_body.velocity(), old_body.velocity()) << "the transformed body walks differently";
+  // Bit for bit what the transformed morphology gives when named explicitly,
+  // and the initial one still gives the old velocity.
+  v1::EvaluateRequest given = evaluate;
+  given.set_morphology_xml(after.morphology_xml());
+  v1::EvaluateResponse given_new;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, given, &given_new));
+  EXPECT_EQ(given_new.velocity(), new_body.velocity());
+  EXPECT_EQ(given_new.distance(), new_body.distance());
+  given.set_morphology_xml(before.morphology_xml());
+  v1::EvaluateResponse given_old;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, given, &given_old));
+  EXPECT_EQ(given_old.velocity(), old_body.velocity());
+
+  // Reset brings the initial body back.
+  EXPECT_OK(Call(stub, &v1::Host::Stub::ResetSimulation, Empty()));
+  v1::GetMorphologyResponse reset;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::GetMorphology, Empty(), &reset));
+  EXPECT_EQ(reset.morphology_xml(), before.morphology_xml());
+}
+
+// An open world whose body has no valid morphology is an error for
+// GetMorphology and for Evaluate on the open world, never another body.
+TEST_F(ServiceTest, AnOpenWorldWithoutAValidMorphologyIsAFailedPrecondition) {
+  auto backend = std::make_unique<SimBackend>(testing::SnakeWithSpares(), bridge::RobotOptions{});
+  physics::World& world = backend->SimulatedRobot()->world();
+  driver_->AttachBackend(std::move(backend), "snake+spares");
+  testing::MakeUnplaceable(world);
+  const grpc::Status morphology = Call(*stub_, &v1::Host::Stub::GetMorphology, Empty());
+  EXPECT_EQ(morphology.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(morphology.error_message().find("starting angles"), std::string::npos)
+      << morphology.error_message();
+  v1::EvaluateRequest evaluate;
+  evaluate.set_warmup(0.1);
+  evaluate.set_duration(0.1);
+  const grpc::Status evaluated = Call(*stub_, &v1::Host::Stub::Evaluate, evaluate);
+  EXPECT_EQ(evaluated.error_code(), grpc::StatusCode::FAILED_PRECONDITION)
+      << evaluated.error_message();
+  // Without an open world Evaluate still uses the default one.
+  EXPECT_OK(Call(*stub_, &v1::Host::Stub::CloseSimulation, Empty()));
+  EXPECT_OK(Call(*stub_, &v1::Host::Stub::Evaluate, evaluate));
 }
 
 TEST_F(ServiceTest, AFloodGetsResourceExhausted) {

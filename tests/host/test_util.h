@@ -1,10 +1,13 @@
 // Shared helpers of the host tests.
 #pragma once
 
+#include <fstream>
 #include <ostream>
+#include <sstream>
 #include <string>
 
 #include "bridge/robot.h"
+#include "physics/world.h"
 #include "cpg/config_xml.h"
 #include "proto/snp/snp.h"
 
@@ -65,6 +68,37 @@ inline bool BridgeReconfigures() {
   std::vector<snp::Frame> out;
   robot.HandleFrame(ToBridge(snp::DisconnectModule{.module = 8}), out);
   return !out.empty() && out.front().type == snp::MessageType::kSpecialAck;
+}
+
+/// The text of a file of the source tree (path relative to its root).
+inline std::string ReadSourceFile(const std::string& relative) {
+  std::ifstream in(kSourceDir + "/" + relative, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+/// configs/worlds/snake.xml with spares 9, 10 and 11.
+inline physics::Morphology SnakeWithSpares() {
+  const physics::Morphology snake =
+      physics::Morphology::LoadFile(kSourceDir + "/configs/worlds/snake.xml");
+  std::vector<physics::MorphologyModule> modules = snake.modules();
+  for (int id : {9, 10, 11}) modules.push_back({id, true, 0});
+  return physics::Morphology::Build(snake.central(), modules, snake.connections(),
+                                    snake.orientation_degrees(), "snake+spares");
+}
+
+/// Reconfigures a SnakeWithSpares() world into a body that has room as it is
+/// but no valid morphology at its starting angles: 9 on module 1 folds over
+/// module 0, 10 stands on 9 and 11 on module 0; with 9 upright again 10 would
+/// lie across 11.
+inline void MakeUnplaceable(physics::World& world) {
+  world.Connect(9, physics::ConnectorId::kFront, 1, physics::ConnectorId::kTop, 0);
+  world.SetMotorEnabled(9, true);  // a bridge's modules start unpowered
+  world.SetServoTarget(9, 1.4);
+  world.Step(300);  // 0.6 s: 9 is at 1.4 rad
+  world.Connect(11, physics::ConnectorId::kFront, 0, physics::ConnectorId::kTop, 0);
+  world.Connect(10, physics::ConnectorId::kFront, 9, physics::ConnectorId::kTop, 0);
 }
 
 }  // namespace yamor::host::testing

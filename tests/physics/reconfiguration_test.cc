@@ -2,6 +2,9 @@
 // transformation scripts.
 #include <cmath>
 #include <random>
+#include <string>
+#include <tuple>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -318,6 +321,179 @@ TEST(ScriptTest, QuadrupedTransformationSucceedsHundredTimes) {
     ++succeeded;
   }
   EXPECT_EQ(succeeded, 100);
+}
+
+// ---- CurrentMorphology (issue 12 §0) --------------------------------------------
+
+// A connection without its source line, comparable.
+std::tuple<int, ConnectorId, int, ConnectorId, int> Link(const MorphologyConnection& c) {
+  return {c.from, c.from_connector, c.to, c.to_connector, c.angle_steps};
+}
+
+std::vector<std::tuple<int, ConnectorId, int, ConnectorId, int>> Links(
+    const std::vector<MorphologyConnection>& connections) {
+  std::vector<std::tuple<int, ConnectorId, int, ConnectorId, int>> links;
+  for (const MorphologyConnection& c : connections) links.push_back(Link(c));
+  return links;
+}
+
+MorphologyConnection Connection(int from, ConnectorId from_connector, int to,
+                                ConnectorId to_connector, int angle_steps) {
+  MorphologyConnection c;
+  c.from = from;
+  c.from_connector = from_connector;
+  c.to = to;
+  c.to_connector = to_connector;
+  c.angle_steps = angle_steps;
+  return c;
+}
+
+// The XML a morphology writes survives a parse unchanged.
+void ExpectRoundTrips(const Morphology& morphology) {
+  const std::string xml = morphology.ToXml();
+  EXPECT_EQ(Morphology::Parse(xml, "round-trip.xml").ToXml(), xml);
+}
+
+TEST(CurrentMorphologyTest, IsTheInitialMorphologyWhileNothingChanged) {
+  World world(WithSpares("quadruped", {9}));
+  world.Step(100);
+  const Morphology current = world.CurrentMorphology();
+  EXPECT_EQ(current.ToXml(), world.morphology().ToXml());
+  EXPECT_EQ(current.source(), world.morphology().source());
+  EXPECT_TRUE(current.Module(9).free);
+  // Back to it after a change and a Reset().
+  world.Disconnect(7);
+  EXPECT_NE(world.CurrentMorphology().ToXml(), world.morphology().ToXml());
+  world.Reset();
+  EXPECT_EQ(world.CurrentMorphology().ToXml(), world.morphology().ToXml());
+}
+
+TEST(CurrentMorphologyTest, FollowsDisconnectAndConnect) {
+  World world(WithSpares("quadruped", {9}));
+  const std::string initial = world.morphology().ToXml();
+  world.Step(200);
+
+  world.Disconnect(7);  // put away
+  Morphology current = world.CurrentMorphology();
+  EXPECT_TRUE(current.Module(7).free);
+  EXPECT_TRUE(current.Module(9).free);
+  EXPECT_FALSE(current.Module(2).free);
+  EXPECT_EQ(current.central(), 4);
+  EXPECT_EQ(current.orientation_degrees(), world.morphology().orientation_degrees());
+  EXPECT_EQ(Links(current.connections()), Links(world.Connections()));
+  EXPECT_EQ(current.connections().size(), 7u);
+  EXPECT_THAT(current.source(), HasSubstr("reconfigured"));
+  EXPECT_EQ(world.morphology().ToXml(), initial) << "the initial morphology stays as it was";
+  ExpectRoundTrips(current);
+
+  // Spare 9 extends leg 3; then hip 3 is dropped with knee 8 and 9 still
+  // screwed together: all three are loose, and the 9 -> 8 link is not part of
+  // the robot.
+  world.Connect(9, ConnectorId::kFront, 8, ConnectorId::kRear, 0);
+  current = world.CurrentMorphology();
+  EXPECT_FALSE(current.Module(9).free);
+  EXPECT_EQ(Link(current.connections().back()),
+            Link(Connection(9, ConnectorId::kFront, 8, ConnectorId::kRear, 0)));
+  EXPECT_EQ(Links(current.connections()), Links(world.Connections()));
+  ExpectRoundTrips(current);
+  world.Disconnect(3, /*put_away=*/false);
+  ASSERT_EQ(world.Presence(9), ModulePresence::kLoose);
+  EXPECT_EQ(world.Connections().size(), 6u) << "0, 1, 2 -> 4, 5 -> 0, 6 -> 1 and 9 -> 8";
+  current = world.CurrentMorphology();
+  for (int id : {3, 7, 8, 9}) EXPECT_TRUE(current.Module(id).free) << id;
+  for (int id : {0, 1, 2, 4, 5, 6}) EXPECT_FALSE(current.Module(id).free) << id;
+  const std::vector<MorphologyConnection> robot_links = {
+      Connection(0, ConnectorId::kFront, 4, ConnectorId::kBottom, 18),
+      Connection(1, ConnectorId::kFront, 4, ConnectorId::kLeft, 0),
+      Connection(2, ConnectorId::kFront, 4, ConnectorId::kTop, 18),
+      Connection(5, ConnectorId::kFront, 0, ConnectorId::kRear, 18),
+      Connection(6, ConnectorId::kFront, 1, ConnectorId::kRear, 18),
+  };
+  EXPECT_EQ(Links(current.connections()), Links(robot_links));
+  ExpectRoundTrips(current);
+  // A fresh world of it has the same body.
+  World rebuilt(current);
+  for (int id : world.ModuleIds()) {
+    EXPECT_EQ(rebuilt.IsConnected(id), world.IsConnected(id)) << id;
+  }
+
+  // Knee 7 comes back where it was.
+  world.Connect(7, ConnectorId::kFront, 2, ConnectorId::kRear, 18);
+  current = world.CurrentMorphology();
+  EXPECT_FALSE(current.Module(7).free);
+  EXPECT_EQ(Link(current.connections().back()),
+            Link(Connection(7, ConnectorId::kFront, 2, ConnectorId::kRear, 18)));
+  ExpectRoundTrips(current);
+  world.Reset();
+  EXPECT_EQ(world.CurrentMorphology().ToXml(), initial);
+}
+
+TEST(CurrentMorphologyTest, KeepsTheStartingAnglesAndFreesTheAngleOfASpare) {
+  World world(Morphology::LoadFile(kConfigs + "worlds/wheel.xml"));
+  world.Step(200);
+  world.Disconnect(6);  // opens the ring: a chain of five
+  const Morphology current = world.CurrentMorphology();
+  EXPECT_TRUE(current.Module(6).free);
+  EXPECT_EQ(current.Module(6).angle_degrees, 0.0) << "a spare takes no angle";
+  for (int id : {1, 2, 3}) EXPECT_EQ(current.Module(id).angle_degrees, -60.0) << id;
+  for (int id : {7, 12}) EXPECT_EQ(current.Module(id).angle_degrees, 60.0) << id;
+  EXPECT_EQ(current.connections().size(), 4u);
+  ExpectRoundTrips(current);
+}
+
+TEST(CurrentMorphologyTest, FollowsTheQuadrupedTransformation) {
+  World world(Morphology::LoadFile(kConfigs + "worlds/quadruped.xml"));
+  const TransformationScript script =
+      TransformationScript::LoadFile(kConfigs + "scripts/quadruped-transform.xml");
+  Stand(world, 500);
+  RunScript(world, script);
+  const Morphology current = world.CurrentMorphology();
+  std::vector<MorphologyModule> modules = world.morphology().modules();
+  for (MorphologyModule& m : modules) m.line = 0;
+  std::vector<MorphologyConnection> connections;
+  for (const MorphologyConnection& c : world.morphology().connections()) {
+    if (c.from != 7 && c.from != 8) connections.push_back(c);
+  }
+  connections.push_back(Connection(7, ConnectorId::kFront, 5, ConnectorId::kRear, 0));
+  connections.push_back(Connection(8, ConnectorId::kFront, 6, ConnectorId::kRear, 0));
+  const Morphology expected = Morphology::Build(4, modules, connections,
+                                                world.morphology().orientation_degrees());
+  EXPECT_EQ(current.ToXml(), expected.ToXml());
+  EXPECT_NE(current.ToXml(), world.morphology().ToXml());
+  for (const MorphologyModule& m : current.modules()) EXPECT_FALSE(m.free) << m.id;
+  ExpectRoundTrips(current);
+  // Built from scratch, the transformed body has the moved knees on the ends
+  // of legs 0 and 1.
+  World transformed(Morphology::Parse(current.ToXml(), "transformed.xml"));
+  for (const auto& [knee, foot] : {std::pair{7, 5}, std::pair{8, 6}}) {
+    const auto [distance, angle] =
+        MateError(transformed, knee, ConnectorId::kFront, foot, ConnectorId::kRear);
+    EXPECT_NEAR(distance, module::kConnectionGap, 1e-6) << knee;
+    EXPECT_LT(angle, 1e-6) << knee;
+  }
+}
+
+TEST(CurrentMorphologyTest, ABodyThatDoesNotPlaceAtItsStartingAnglesIsAFailedPrecondition) {
+  World world(WithSpares("snake", {9, 10, 11}));
+  // 9 stands on module 1 and folds its body over module 0; 10, screwed onto
+  // the face of 9 that now points up, stands clear of 11 upright on module 0.
+  // At the starting angles (9 upright again) 10 would lie across 11.
+  world.Connect(9, ConnectorId::kFront, 1, ConnectorId::kTop, 0);
+  world.SetServoTarget(9, 1.4);
+  world.Step(300);  // 0.6 s: 9 is at 1.4 rad
+  world.Connect(11, ConnectorId::kFront, 0, ConnectorId::kTop, 0);
+  world.Connect(10, ConnectorId::kFront, 9, ConnectorId::kTop, 0);
+  const Error error = ErrorOf([&] { world.CurrentMorphology(); });
+  EXPECT_EQ(error.code(), StatusCode::kFailedPrecondition);
+  EXPECT_THAT(error.what(), HasSubstr("starting angles"));
+  EXPECT_THAT(error.what(), HasSubstr("module id=\"11\""));
+  EXPECT_THAT(error.what(), HasSubstr("module id=\"10\""));
+  // The world itself is fine and keeps running; without 10 there is a
+  // morphology again.
+  world.Step(200);
+  EXPECT_FALSE(world.Diverged());
+  world.Disconnect(10);
+  EXPECT_TRUE(world.CurrentMorphology().Module(10).free);
 }
 
 }  // namespace
