@@ -72,14 +72,16 @@ def test_the_generated_problem_runs_with_yamor_optimize(yamord, tmp_path):
 
 def test_the_daemons_robot_as_it_is_now(host, yamord):
     host.open_simulation("quadruped")
-    before = run_build("--daemon", yamord, "--key").stdout.strip()
-    assert before == run_build("--world", "quadruped", "--key").stdout.strip()
-    host.run_script_file(REPO / "configs" / "scripts" / "quadruped-transform.xml")
-    after = run_build("--daemon", yamord, "--key").stdout.strip()
-    assert after != before, "GetMorphology still reports the body before the transformation"
-    explain = run_build("--daemon", yamord, "--explain").stdout
-    assert "free parameters:" in explain
-    host.close_simulation()
+    try:
+        before = run_build("--daemon", yamord, "--key").stdout.strip()
+        assert before == run_build("--world", "quadruped", "--key").stdout.strip()
+        host.run_script_file(REPO / "configs" / "scripts" / "quadruped-transform.xml")
+        after = run_build("--daemon", yamord, "--key").stdout.strip()
+        assert after != before, "GetMorphology still reports the body before the transformation"
+        explain = run_build("--daemon", yamord, "--explain").stdout
+        assert "free parameters:" in explain
+    finally:
+        host.open_simulation("quadruped")  # the session daemon's default world again, for later tests
 
 
 @pytest.mark.parametrize("args, message", [

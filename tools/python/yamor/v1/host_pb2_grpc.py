@@ -455,7 +455,9 @@ class HostServicer(object):
         raise NotImplementedError('Method not implemented!')
 
     def GetMorphology(self, request, context):
-        """The open world's morphology (modules, connections) as XML.
+        """The open world's morphology (modules, connections) as XML, as the robot is
+        now: after ConnectModules, DisconnectModule and scripts; modules not in the
+        robot are free.
         """
         context.set_code(grpc.StatusCode.UNIMPLEMENTED)
         context.set_details('Method not implemented!')
