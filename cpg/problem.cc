@@ -352,11 +352,6 @@ std::set<int> KeepFreeIndices(const std::vector<NetworkEdge>& edges,
 }
 
 // Module classes with servo parity: offset(m) = sign·offset(rep).
-struct ModuleTie {
-  ModuleId rep = 0;
-  int sign = 1;
-};
-
 class ParityJoins {
  public:
   void Add(ModuleId v) { parent_.try_emplace(v, std::pair{v, 1}); }
@@ -415,7 +410,6 @@ Ties ComputeTies(const std::vector<Symmetry>& elements, const std::vector<GraphM
   // Module classes.
   ParityJoins modules;
   for (ModuleId id : driven) modules.Add(id);
-  std::set<ModuleId> odd_roots_members;  // members of classes whose offsets cannot tie
   std::vector<std::pair<ModuleId, ModuleId>> contradictions;
   for (const Symmetry& s : elements) {
     for (size_t i = 0; i < pm.size(); ++i) {
