@@ -23,6 +23,15 @@ std::string Id(ModuleId id) { return std::to_string(id); }
 std::string PhaseName(ModuleId from, ModuleId to) { return "phase." + Id(from) + "." + Id(to); }
 std::string EdgeName(const NetworkEdge& e) { return Id(e.u) + "-" + Id(e.v); }
 
+// Sort key of a parameter name: its kind, then its ids as numbers.
+std::vector<int> ParamOrder(const std::string& param) {
+  std::vector<int> key{param[0] == 'a' ? 0 : param[0] == 'o' ? 1 : 2};
+  std::stringstream in(param.substr(param.find('.') + 1));
+  std::string id;
+  while (std::getline(in, id, '.')) key.push_back(std::stoi(id));
+  return key;
+}
+
 // " 1 2 3" for a list of ids.
 std::string SpacedIds(const std::vector<ModuleId>& ids) {
   std::string out;
@@ -92,9 +101,42 @@ PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vect
     while (parent[v] != v) v = parent[v] = parent[parent[v]];
     return v;
   };
-  std::vector<int> order(m);
-  for (int e = 0; e < m; ++e) order[e] = e;
-  std::stable_partition(order.begin(), order.end(), [&](int e) { return keep_free.count(e) > 0; });
+  // Edge order for the tree: keep-free edges, then the edges a depth-first
+  // walk from the smallest vertex (neighbours ascending) goes along, then the
+  // rest. A depth-first tree keeps a ring's free lags consecutive
+  // (0-1, 1-2, 2-3) with the closing edge constrained, as Table 6.1 does.
+  std::vector<int> order;
+  std::vector<bool> placed(m, false);
+  for (int e : keep_free) {
+    order.push_back(e);
+    placed[e] = true;
+  }
+  {
+    std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> adj;
+    for (int e = 0; e < m; ++e) {
+      adj[edges[e].u].push_back({edges[e].v, e});
+      adj[edges[e].v].push_back({edges[e].u, e});
+    }
+    for (auto& [v, ns] : adj) std::sort(ns.begin(), ns.end());
+    std::set<ModuleId> visited;
+    std::function<void(ModuleId)> dfs = [&](ModuleId at) {
+      visited.insert(at);
+      for (const auto& [next, e] : adj[at]) {
+        if (visited.count(next)) continue;
+        if (!placed[e]) {
+          order.push_back(e);
+          placed[e] = true;
+        }
+        dfs(next);
+      }
+    };
+    for (ModuleId v : vertices) {
+      if (!visited.count(v)) dfs(v);
+    }
+  }
+  for (int e = 0; e < m; ++e) {
+    if (!placed[e]) order.push_back(e);
+  }
   std::vector<bool> in_tree(m, false);
   std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> tree_adj;
   for (int e : order) {
@@ -813,13 +855,15 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     return kind == "amplitude" ? p->amplitude : p->offset;
   };
   for (const std::string& f : fixed_params) out.fixed.push_back({f, value_of(f)});
+  // The free set in a fixed order (the seeded order only chose what to fix):
+  // amplitudes, offsets, then phases, each by representative.
   for (const auto* group : {&amplitudes, &offsets, &phases}) {
-    for (const Candidate& c : *group) out.free.push_back(c.param);
+    std::vector<Candidate> sorted = *group;
+    std::sort(sorted.begin(), sorted.end(), [](const Candidate& x, const Candidate& y) {
+      return ParamOrder(x.param.param) < ParamOrder(y.param.param);
+    });
+    for (const Candidate& c : sorted) out.free.push_back(c.param);
   }
-  std::stable_sort(out.free.begin(), out.free.end(), [](const FreeParameter& x, const FreeParameter& y) {
-    auto rank = [](const std::string& p) { return p[0] == 'a' ? 0 : p[0] == 'o' ? 1 : 2; };
-    return rank(x.param) < rank(y.param);
-  });
   if (!out.fixed.empty()) {
     out.notes.push_back(std::to_string(out.fixed.size()) + " parameter(s) above the budget of " +
                         std::to_string(options.max_free) + " fixed at their warm-start values (seed " +
