@@ -399,10 +399,27 @@ void Robot::HandleBridgeCommand(const snp::Message& message, std::vector<snp::Fr
         }
       }
       reply(d);
-    } else if (std::holds_alternative<snp::ReadMorphology>(message)) {
-      // Needs physics::World::CurrentMorphology (the concurrent "current
-      // morphology" fix); until it lands the readback is not offered.
-      fail(StatusCode::kUnimplemented, "morphology readback is not available yet");
+    } else if (const auto* m = std::get_if<snp::ReadMorphology>(&message)) {
+      if (m->offset == 0) {
+        morphology_snapshot_ = world_.CurrentMorphology().ToXml();  // FAILED_PRECONDITION if invalid
+        has_morphology_snapshot_ = true;
+      } else if (!has_morphology_snapshot_) {
+        fail(StatusCode::kFailedPrecondition,
+             "ReadMorphology at offset " + std::to_string(m->offset) +
+                 " before a read at offset 0 took a snapshot");
+        return;
+      }
+      snp::MorphologyChunk chunk{.total = static_cast<uint32_t>(morphology_snapshot_.size()),
+                                 .offset = m->offset};
+      if (m->offset < morphology_snapshot_.size()) {
+        const std::size_t n =
+            std::min<std::size_t>(m->length, morphology_snapshot_.size() - m->offset);
+        chunk.data.assign(morphology_snapshot_.begin() + m->offset,
+                          morphology_snapshot_.begin() + m->offset + n);
+      } else {
+        chunk.offset = chunk.total;  // at or past the end: an empty chunk at the end
+      }
+      reply(chunk);
     } else if (std::holds_alternative<snp::GetSimInfo>(message)) {
       const physics::AccelerometerSpec& spec = world_.options().accelerometer;
       reply(snp::SimInfo{.time_step = world_.options().time_step,
@@ -498,55 +515,6 @@ void Robot::FireTimers(std::vector<snp::Frame>& events) {
                                                     .time = Time()}));
     timers_.erase(timers_.begin());
   }
-}
-
-bool IsInactive(const cpg::ModuleParams& module) {
-  return module.amplitude == 0.0 && module.offset == 0.0 && module.speed == 0.0;
-}
-
-std::vector<snp::Frame> ConfigurationFrames(const cpg::RobotConfig& config) {
-  std::vector<snp::Frame> frames;
-  const Address host = Address::Host();
-  auto to_module = [](int id) { return Address::Module(static_cast<uint8_t>(id)); };
-
-  // Bluetooth links in tree order: a parent is linked before its children.
-  std::map<int, std::vector<int>> children;
-  for (const auto& [child, parent] : config.bluetooth_parent) children[parent].push_back(child);
-  std::deque<int> queue{config.master_id};
-  while (!queue.empty()) {
-    const int parent = queue.front();
-    queue.pop_front();
-    for (int child : children[parent]) {
-      frames.push_back(snp::MakeFrame(host, to_module(parent),
-                                      snp::ConnectRequest{.child = static_cast<uint8_t>(child)}));
-      queue.push_back(child);
-    }
-  }
-  for (const cpg::ModuleParams& m : config.modules) {
-    frames.push_back(snp::MakeFrame(host, to_module(m.id),
-                                    snp::SetOscillator{.amplitude = static_cast<float>(m.amplitude),
-                                                       .offset = static_cast<float>(m.offset),
-                                                       .speed = static_cast<float>(m.speed)}));
-    frames.push_back(snp::MakeFrame(host, to_module(m.id),
-                                    snp::SetLimits{.min_angle = static_cast<float>(m.min_angle),
-                                                   .max_angle = static_cast<float>(m.max_angle)}));
-    frames.push_back(snp::MakeFrame(host, to_module(m.id), snp::ClearCouplings{}));
-    for (const cpg::Coupling& c : config.couplings) {
-      if (c.from != m.id) continue;
-      frames.push_back(snp::MakeFrame(host, to_module(m.id),
-                                      snp::SetCoupling{.to = static_cast<uint8_t>(c.to),
-                                                       .phase = static_cast<float>(c.phase),
-                                                       .weight = static_cast<float>(c.weight)}));
-    }
-  }
-  for (const cpg::ModuleParams& m : config.modules) {
-    frames.push_back(snp::MakeFrame(
-        host, to_module(m.id),
-        snp::Control{.uart = snp::Tristate::kOn,
-                     .cpg = snp::Tristate::kOn,
-                     .motors = IsInactive(m) ? snp::Tristate::kOff : snp::Tristate::kOn}));
-  }
-  return frames;
 }
 
 }  // namespace yamor::bridge

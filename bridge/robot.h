@@ -150,6 +150,8 @@ class Robot {
 
   double slope_ = 0.0;            // ground tilt set by SetGround [rad]
   double slope_direction_ = 0.0;  // its downhill azimuth [rad]
+  std::string morphology_snapshot_;  // ReadMorphology's text (taken at offset 0)
+  bool has_morphology_snapshot_ = false;
   std::multimap<double, uint8_t> timers_;  // due time -> timer id
   // Recent accelerometer samples per module whose UART is on, oldest first.
   std::map<int, std::deque<physics::AccelerometerReading>> accelerometer_history_;
@@ -158,19 +160,5 @@ class Robot {
   std::vector<snp::Frame> reply_scratch_;
   RobotStats stats_;
 };
-
-/// True for one of the thesis's inactive modules: a configured module whose
-/// oscillator is all zero (amplitude, offset and speed 0). It is configured
-/// (it may be the master and relay links) but its servo stays unpowered, a
-/// free hinge, instead of holding 0 against the robot (appendix A.4's wheel).
-bool IsInactive(const cpg::ModuleParams& module);
-
-/// The frames that bring a robot from power-on to running `config`, in the
-/// order a host sends them: bluetooth links in tree order (parent first), then
-/// per module its oscillator, limits, couplings (cleared, then set), and
-/// finally Control(uart on, cpg on, motors on — off for an inactive module,
-/// see IsInactive) to each module. Ids in `config` are used as they are (no
-/// id mapping).
-std::vector<snp::Frame> ConfigurationFrames(const cpg::RobotConfig& config);
 
 }  // namespace yamor::bridge

@@ -10,10 +10,6 @@
 
 #include "proto/snp/frame.h"
 
-namespace yamor::bridge {
-class Robot;
-}  // namespace yamor::bridge
-
 namespace yamor::host {
 
 /// One robot link. The driver sends frames with Send and collects the robot's
@@ -35,15 +31,12 @@ class Backend {
   virtual std::optional<snp::Frame> Receive(std::chrono::milliseconds timeout) = 0;
 
   /// True for a simulated robot: bridge commands (time, step, position,
-  /// reset) are answered and virtual time advances only when stepped.
+  /// reset, ground, defects, morphology; docs/snp.md) are answered and
+  /// virtual time advances only when stepped. There is no other way in.
   virtual bool IsSimulation() const = 0;
 
   /// Short name for logs and GetInfo ("simulation", "serial", "fake").
   virtual std::string Name() const = 0;
-
-  /// The simulated robot for what SNP does not carry (faults, ground,
-  /// morphology, divergence), or nullptr for hardware and fakes.
-  virtual bridge::Robot* SimulatedRobot() { return nullptr; }
 };
 
 }  // namespace yamor::host

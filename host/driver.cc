@@ -6,13 +6,12 @@
 #include <cmath>
 #include <sstream>
 
-#include "bridge/robot.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
-#include "host/sim_backend.h"
+#include "host/config_frames.h"
+#include "host/sim_factory.h"
 #include "physics/script.h"
-#include "physics/world.h"
 
 namespace yamor::host {
 
@@ -33,7 +32,6 @@ static_assert(static_cast<int>(physics::ConnectorId::kFront) == static_cast<int>
               static_cast<int>(physics::ConnectorId::kTop) == static_cast<int>(snp::Connector::kTop) &&
               static_cast<int>(physics::ConnectorId::kBottom) == static_cast<int>(snp::Connector::kBottom));
 
-constexpr std::size_t kMaxEvents = 1024;
 constexpr double kMinTimeStep = 1e-5;
 constexpr double kMaxTimeStep = 0.02;
 constexpr double kMaxLinkTimeout = 120.0;
@@ -58,13 +56,13 @@ double SecondsSince(Clock::time_point t) {
   throw Error(StatusCode::kUnavailable, std::string(what) + " interrupted: yamord is shutting down");
 }
 
-physics::MotorFault ToFault(MotorDefect defect) {
+snp::MotorFault ToFault(MotorDefect defect) {
   switch (defect) {
-    case MotorDefect::kLimp: return physics::MotorFault::kLimp;
-    case MotorDefect::kStuck: return physics::MotorFault::kStuck;
+    case MotorDefect::kLimp: return snp::MotorFault::kLimp;
+    case MotorDefect::kStuck: return snp::MotorFault::kStuck;
     case MotorDefect::kNone: break;
   }
-  return physics::MotorFault::kNone;
+  return snp::MotorFault::kNone;
 }
 
 std::string_view DefectName(MotorDefect defect) {
@@ -114,14 +112,13 @@ Backend& RobotDriver::RequireBackendLocked(std::string_view what) const {
   return *backend_;
 }
 
-bridge::Robot& RobotDriver::RequireSimulatedRobotLocked(std::string_view what) const {
+SnpLink& RobotDriver::RequireSimulationLocked(std::string_view what) const {
   Backend& backend = RequireBackendLocked(what);
-  bridge::Robot* robot = backend.SimulatedRobot();
-  if (robot == nullptr) {
+  if (!backend.IsSimulation()) {
     throw Error(StatusCode::kUnimplemented, std::string(what) + " needs a simulated robot; the " +
                                                 backend.Name() + " backend has none");
   }
-  return *robot;
+  return *link_;
 }
 
 void RobotDriver::RequireConnectedLocked(std::string_view what) const {
@@ -132,132 +129,21 @@ void RobotDriver::RequireConnectedLocked(std::string_view what) const {
   }
 }
 
-int RobotDriver::Wire(int real) const {
-  return backend_ && backend_->IsSimulation() ? options_.id_map.ToSim(real) : real;
-}
-
-int RobotDriver::Real(int wire) const {
-  return backend_ && backend_->IsSimulation() ? options_.id_map.ToReal(wire) : wire;
-}
-
-snp::Message RobotDriver::ToWire(const snp::Message& message) const {
-  auto wire8 = [this](int real) { return static_cast<uint8_t>(Wire(real)); };
-  snp::Message out = message;
-  if (auto* m = std::get_if<snp::ConnectRequest>(&out)) m->child = wire8(m->child);
-  if (auto* m = std::get_if<snp::SetCoupling>(&out)) m->to = wire8(m->to);
-  if (auto* m = std::get_if<snp::SetMasterNode>(&out)) m->module = wire8(m->module);
-  if (auto* m = std::get_if<snp::DisconnectModule>(&out)) m->module = wire8(m->module);
-  if (auto* m = std::get_if<snp::ConnectModules>(&out)) {
-    m->from = wire8(m->from);
-    m->to = wire8(m->to);
-  }
-  return out;
-}
-
-std::optional<snp::Message> RobotDriver::ModuleRequestLocked(int id, const snp::Message& message,
-                                                             snp::MessageType reply,
-                                                             double timeout) {
-  Backend& backend = *backend_;
-  const int wire = Wire(id);
-  const snp::Message wire_message = ToWire(message);
-  const snp::MessageType type = snp::TypeOf(message);
-  backend.Send(snp::MakeFrame(Address::Host(), Address::Module(static_cast<uint8_t>(wire)),
-                              wire_message));
-  const Clock::time_point deadline = Clock::now() + ToMillis(timeout);
-  while (true) {
-    const auto remaining =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
-    std::optional<snp::Frame> frame =
-        backend.Receive(std::max(std::chrono::milliseconds(0), remaining));
-    if (!frame) return std::nullopt;  // the backend waited `remaining` for nothing
-    if (frame->source != Address::Module(static_cast<uint8_t>(wire)) ||
-        frame->destination.kind != snp::NodeKind::kHost) {
-      HandleUnsolicitedLocked(*frame);
-      continue;
-    }
-    snp::Message m;
-    try {
-      m = snp::DecodeMessage(*frame);
-    } catch (const Error& e) {
-      Log().warn("driver: undecodable reply from module {}: {}", id, e.what());
-      continue;
-    }
-    if (const auto* ack = std::get_if<snp::Ack>(&m); ack && ack->acked == type) {
-      if (ack->status != StatusCode::kOk) {
-        throw Error(ack->status, "module " + Id(id) + " refused " +
-                                     std::string(snp::MessageTypeName(type)) + " (" +
-                                     std::string(StatusCodeName(ack->status)) + ")");
-      }
-      if (reply == snp::MessageType::kAck) return m;
-    }
-    if (snp::TypeOf(m) == reply && reply != snp::MessageType::kAck) {
-      if (const auto* ack = std::get_if<snp::ConnectAck>(&m)) {
-        // A late answer to an earlier link attempt is not ours.
-        if (ack->child != std::get<snp::ConnectRequest>(wire_message).child) continue;
-        snp::ConnectAck real = *ack;
-        real.child = static_cast<uint8_t>(Real(ack->child));
-        return real;
-      }
-      return m;
-    }
-    HandleUnsolicitedLocked(*frame);
-  }
-}
-
 snp::Message RobotDriver::ModuleCallLocked(int id, const snp::Message& message,
                                            snp::MessageType reply) {
-  std::optional<snp::Message> m = ModuleRequestLocked(id, message, reply, options_.reply_timeout);
-  if (!m) {
-    throw Error(StatusCode::kUnavailable,
-                "module " + Id(id) + " did not answer " +
-                    std::string(snp::MessageTypeName(snp::TypeOf(message))) +
-                    (backend_->IsSimulation() ? "" : " within " + Num(options_.reply_timeout) + " s") +
-                    " (is it linked? the robot may be half-configured)");
-  }
-  return *m;
+  return link_->ModuleCall(id, message, reply);
 }
 
 snp::Message RobotDriver::BridgeRequestLocked(const snp::Message& message,
                                               snp::MessageType reply) {
-  Backend& backend = *backend_;
-  const snp::MessageType type = snp::TypeOf(message);
-  backend.Send(snp::MakeFrame(Address::Host(), Address::Bridge(), ToWire(message)));
-  const Clock::time_point deadline = Clock::now() + ToMillis(options_.reply_timeout);
-  while (true) {
-    const auto remaining =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
-    std::optional<snp::Frame> frame =
-        backend.Receive(std::max(std::chrono::milliseconds(0), remaining));
-    if (!frame) {
-      throw Error(StatusCode::kUnavailable, "the " + backend.Name() + " backend did not answer " +
-                                                std::string(snp::MessageTypeName(type)));
-    }
-    if (frame->source.kind != snp::NodeKind::kBridge) {
-      HandleUnsolicitedLocked(*frame);
-      continue;
-    }
-    snp::Message m;
-    try {
-      m = snp::DecodeMessage(*frame);
-    } catch (const Error& e) {
-      Log().warn("driver: undecodable bridge reply: {}", e.what());
-      continue;
-    }
-    if (const auto* error = std::get_if<snp::SpecialError>(&m); error && error->acked == type) {
-      throw Error(error->code, std::string(snp::MessageTypeName(type)) + " failed: " + error->text);
-    }
-    if (const auto* ack = std::get_if<snp::SpecialAck>(&m);
-        ack && ack->acked == type && reply == snp::MessageType::kSpecialAck) {
-      return m;
-    }
-    if (snp::TypeOf(m) == reply && reply != snp::MessageType::kSpecialAck) return m;
-    HandleUnsolicitedLocked(*frame);
-  }
+  return link_->BridgeRequest(message, reply);
 }
 
-void RobotDriver::HandleUnsolicitedLocked(const snp::Frame& frame) {
-  Log().debug("driver: ignoring {} from {}", snp::MessageTypeName(frame.type),
-              snp::ToString(frame.source));
+void RobotDriver::InstallBackendLocked(std::unique_ptr<Backend> backend) {
+  link_.reset();
+  backend_ = std::move(backend);
+  link_ = std::make_unique<SnpLink>(*backend_, options_.id_map,
+                                    SnpLinkOptions{.reply_timeout = options_.reply_timeout});
 }
 
 void RobotDriver::CheckDivergedLocked() {
@@ -265,13 +151,14 @@ void RobotDriver::CheckDivergedLocked() {
     throw Error(StatusCode::kFailedPrecondition,
                 "world diverged (" + divergence_ + "): call ResetSimulation or OpenSimulation");
   }
-  bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr;
-  if (robot == nullptr || !robot->world().Diverged()) return;
-  const physics::DivergenceInfo& info = robot->world().Divergence();
+  if (!backend_ || !backend_->IsSimulation()) return;
+  const snp::Message m = BridgeRequestLocked(snp::GetDivergence{}, snp::MessageType::kDivergence);
+  const auto& info = std::get<snp::Divergence>(m);
+  if (!info.diverged) return;
   diverged_ = true;
-  divergence_ = info.reason + " at t = " + Num(robot->Time()) + " s";
+  divergence_ = info.reason + " at t = " + Num(info.time) + " s";
   PushEvent(StateEvent{.kind = "diverged",
-                       .module_id = info.module_id >= 0 ? Real(info.module_id) : -1,
+                       .module_id = info.module != snp::kNoModule ? link_->Real(info.module) : -1,
                        .detail = divergence_});
   throw Error(StatusCode::kFailedPrecondition,
               "world diverged (" + divergence_ + "): call ResetSimulation or OpenSimulation");
@@ -288,7 +175,7 @@ void RobotDriver::StepLocked(double seconds) {
     throw;
   }
   CheckDivergedLocked();
-  if (watchers_.load() > 0) RecordSampleLocked();
+  if (state_.Watched()) RecordSampleLocked();
 }
 
 void RobotDriver::RecordSampleLocked() {
@@ -296,29 +183,11 @@ void RobotDriver::RecordSampleLocked() {
     const snp::Message m =
         BridgeRequestLocked(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
     const auto& p = std::get<snp::RobotPosition>(m);
-    RobotPose pose{.time = p.time, .position = p.position, .orientation = p.orientation,
-                   .source = "simulation"};
-    {
-      std::lock_guard<std::mutex> lock(watch_mutex_);
-      latest_sample_ = pose;
-      ++sample_seq_;
-    }
-    watch_cv_.notify_all();
+    state_.RecordSample(RobotPose{.time = p.time, .position = p.position,
+                                  .orientation = p.orientation, .source = "simulation"});
   } catch (const Error& e) {
     Log().debug("driver: no state sample: {}", e.what());
   }
-}
-
-void RobotDriver::PushEvent(StateEvent event) {
-  Log().info("event {}{}{}", event.kind,
-             event.module_id >= 0 ? " module " + Id(event.module_id) : std::string(),
-             event.detail.empty() ? std::string() : ": " + event.detail);
-  {
-    std::lock_guard<std::mutex> lock(watch_mutex_);
-    events_.emplace_back(next_event_seq_++, std::move(event));
-    while (events_.size() > kMaxEvents) events_.pop_front();
-  }
-  watch_cv_.notify_all();
 }
 
 void RobotDriver::CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
@@ -363,7 +232,7 @@ void RobotDriver::MarkAllPendingLocked() {
 // ---- Backend -------------------------------------------------------------------
 
 OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
-  double time_step = spec.time_step == 0.0 ? physics::WorldOptions().time_step : spec.time_step;
+  double time_step = spec.time_step == 0.0 ? DefaultSimulationTimeStep() : spec.time_step;
   if (!std::isfinite(time_step)) {
     throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + Num(time_step));
   }
@@ -371,7 +240,7 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
     throw Error(StatusCode::kOutOfRange, "time step " + Num(time_step) + " s is outside [" +
                                              Num(kMinTimeStep) + ", " + Num(kMaxTimeStep) + "]");
   }
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   if (shutdown_) ThrowShutdown("OpenSimulation");
   cpg::RobotConfig config = spec.config ? *spec.config : config_;
   CheckConfigAgainstWorldLocked(config, spec.morphology);
@@ -380,70 +249,96 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
                                                   " is not a module of world " +
                                                   spec.morphology.source());
   }
-  bridge::RobotOptions robot_options;
-  robot_options.world.time_step = time_step;
-  robot_options.world.seed = spec.seed;
-  robot_options.phase_seed = spec.seed;
-  robot_options.master = options_.id_map.ToSim(options_.master.value_or(config.master_id));
-  auto backend = std::make_unique<SimBackend>(std::move(spec.morphology), robot_options);
-  const physics::World& world = backend->SimulatedRobot()->world();
   OpenedSimulation opened;
-  for (int sim : world.ModuleIds()) opened.module_ids.push_back(options_.id_map.ToReal(sim));
-  opened.central_module = options_.id_map.ToReal(world.CentralModule());
-
-  backend_ = std::move(backend);
+  for (const physics::MorphologyModule& m : spec.morphology.modules()) {
+    opened.module_ids.push_back(options_.id_map.ToReal(m.id));
+  }
+  std::sort(opened.module_ids.begin(), opened.module_ids.end(), [this](int a, int b) {
+    return options_.id_map.ToSim(a) < options_.id_map.ToSim(b);
+  });
+  opened.central_module = options_.id_map.ToReal(spec.morphology.central());
+  const SimulationOptions sim_options{
+      .time_step = time_step,
+      .seed = spec.seed,
+      .master = options_.id_map.ToSim(options_.master.value_or(config.master_id))};
+  world_morphology_ = spec.morphology;
+  InstallBackendLocked(MakeSimBackend(std::move(spec.morphology), sim_options));
+  accelerometer_zero_ = 512.0;
+  accelerometer_count_ = 0.0395;
+  const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
+  accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
+  accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
   config_ = std::move(config);
   world_name_ = spec.world_name;
   ResetRobotStateLocked();
   time_step_ = time_step;
   attached_at_ = Clock::now();
   PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
-  if (watchers_.load() > 0) RecordSampleLocked();
+  if (state_.Watched()) RecordSampleLocked();
   wake_.notify_all();
   return opened;
 }
 
 void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string world_name) {
   YAMOR_CHECK(backend != nullptr, "AttachBackend needs a backend");
-  Lock lock(mutex_, lock_waiters_);
-  backend_ = std::move(backend);
+  Lock lock(mutex_);
+  InstallBackendLocked(std::move(backend));
   world_name_ = std::move(world_name);
   ResetRobotStateLocked();
-  time_step_ = backend_->SimulatedRobot() ? backend_->SimulatedRobot()->world().options().time_step
-                                          : physics::WorldOptions().time_step;
+  world_morphology_.reset();
+  time_step_ = DefaultSimulationTimeStep();
+  accelerometer_zero_ = 512.0;
+  accelerometer_count_ = 0.0395;
+  if (backend_->IsSimulation()) {
+    // What the simulation is, asked over the link like everything else.
+    const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
+    time_step_ = std::get<snp::SimInfo>(info).time_step;
+    accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
+    accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
+    world_morphology_ = physics::Morphology::Parse(link_->ReadMorphologyXml(), world_name_);
+  }
   attached_at_ = Clock::now();
   PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
 }
 
 void RobotDriver::CloseSimulation() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   if (!backend_) return;
+  link_.reset();
   backend_.reset();
+  world_morphology_.reset();
   world_name_.clear();
   ResetRobotStateLocked();
   PushEvent(StateEvent{.kind = "closed"});
 }
 
 bool RobotDriver::SimulationModeEnabled() const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   return backend_ && backend_->IsSimulation();
 }
 
 void RobotDriver::ResetSimulation() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   Backend& backend = RequireBackendLocked("ResetSimulation");
-  if (bridge::Robot* robot = backend.SimulatedRobot()) {
-    for (int id : module_defects_) robot->SetModuleDefect(Wire(id), false);
+  if (backend.IsSimulation()) {
+    // Defects survive a reset of the world (they are hardware): repair them.
+    for (int id : module_defects_) {
+      BridgeRequestLocked(snp::SetModuleDefect{.module = static_cast<uint8_t>(id), .defective = false},
+                          snp::MessageType::kSpecialAck);
+    }
   }
   BridgeRequestLocked(snp::ResetSimulation{}, snp::MessageType::kSpecialAck);
   ResetRobotStateLocked();
   PushEvent(StateEvent{.kind = "reset"});
-  if (watchers_.load() > 0) RecordSampleLocked();
+  if (state_.Watched()) RecordSampleLocked();
 }
 
 physics::Morphology RobotDriver::GetMorphology() const {
-  Lock lock(mutex_, lock_waiters_);
-  return RequireSimulatedRobotLocked("GetMorphology").world().CurrentMorphology();
+  Lock lock(mutex_);
+  SnpLink& link = RequireSimulationLocked("GetMorphology");
+  const std::string source =
+      world_morphology_ ? world_morphology_->source() : world_name_;
+  return physics::Morphology::Parse(link.ReadMorphologyXml(), source);
 }
 
 // ---- Configuration ---------------------------------------------------------------
@@ -451,9 +346,9 @@ physics::Morphology RobotDriver::GetMorphology() const {
 void RobotDriver::LoadConfig(std::string_view xml, std::string_view source_name) {
   cpg::RobotConfig config =
       cpg::ParseConfigXml(xml, source_name.empty() ? "<request>" : source_name);
-  Lock lock(mutex_, lock_waiters_);
-  if (bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr) {
-    CheckConfigAgainstWorldLocked(config, robot->world().morphology());
+  Lock lock(mutex_);
+  if (backend_ && world_morphology_) {
+    CheckConfigAgainstWorldLocked(config, *world_morphology_);
   } else {
     std::vector<int> ids;
     for (const cpg::ModuleParams& m : config.modules) ids.push_back(m.id);
@@ -468,29 +363,29 @@ void RobotDriver::LoadConfig(std::string_view xml, std::string_view source_name)
 }
 
 std::string RobotDriver::SaveConfig() const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   return cpg::WriteConfigXml(config_);
 }
 
 cpg::RobotConfig RobotDriver::Config() const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   return config_;
 }
 
 std::vector<int> RobotDriver::GetAllModulesId() const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   std::vector<int> ids;
   for (const cpg::ModuleParams& m : config_.modules) ids.push_back(m.id);
   return ids;
 }
 
 double RobotDriver::GetModuleValue(int id, ModuleField field) const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   return GetModuleField(config_, id, field);
 }
 
 void RobotDriver::SetModuleValue(int id, ModuleField field, double value) {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   SetModuleField(config_, id, field, value);
   PendingModule& p = pending_[id];
   switch (field) {
@@ -503,24 +398,24 @@ void RobotDriver::SetModuleValue(int id, ModuleField field, double value) {
 }
 
 double RobotDriver::GetCouplingValue(int from, int to, CouplingField field) const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   return GetCouplingField(config_, from, to, field);
 }
 
 void RobotDriver::SetCouplingValue(int from, int to, CouplingField field, double value) {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   SetCouplingField(config_, from, to, field, value);
   pending_[from].couplings.insert(to);
 }
 
 void RobotDriver::AddCoupling(int from, int to, double phase, double weight) {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   cpg::AddCoupling(config_, from, to, phase, weight);
   pending_[from].couplings.insert(to);
 }
 
 void RobotDriver::RemoveAllCouplings() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   config_.couplings.clear();
   for (const cpg::ModuleParams& m : config_.modules) {
     PendingModule& p = pending_[m.id];
@@ -530,7 +425,7 @@ void RobotDriver::RemoveAllCouplings() {
 }
 
 int RobotDriver::PendingChanges() const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   int n = 0;
   for (const auto& [id, p] : pending_) n += p.Count();
   return n;
@@ -600,7 +495,7 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
   }
   const double timeout = link_timeout > 0.0 ? link_timeout : options_.link_timeout;
   const Clock::time_point start = Clock::now();
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   Backend& backend = RequireBackendLocked("ConnectRobot");
   const int master = config_.master_id;
   if (options_.master && *options_.master != master) {
@@ -630,7 +525,7 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
       if (cancel && cancel()) {
         throw Error(StatusCode::kCancelled, "ConnectRobot cancelled before " + link + progress);
       }
-      std::optional<snp::Message> reply = ModuleRequestLocked(
+      std::optional<snp::Message> reply = link_->ModuleRequest(
           parent, snp::ConnectRequest{.child = static_cast<uint8_t>(child)},
           snp::MessageType::kConnectAck, timeout);
       ++result.frames_sent;
@@ -656,7 +551,7 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
 }
 
 int RobotDriver::Flush() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   RequireBackendLocked("Flush");
   RequireConnectedLocked("Flush");
   int frames = 0;
@@ -678,14 +573,14 @@ int RobotDriver::Flush() {
 }
 
 int RobotDriver::Refresh() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   RequireBackendLocked("Refresh");
   RequireConnectedLocked("Refresh");
   return RefreshLocked();
 }
 
 void RobotDriver::SendControlMessage(const ControlMessage& message) {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   RequireBackendLocked("SendControlMessage");
   std::vector<int> targets;
   if (message.all) {
@@ -714,7 +609,7 @@ void RobotDriver::SendControlMessage(const ControlMessage& message) {
     // unpowered, as Evaluate and ConfigurationFrames leave it; naming the
     // module powers it.
     if (message.all && control.motors == snp::Tristate::kOn &&
-        bridge::IsInactive(*config_.FindModule(id))) {
+        IsInactive(*config_.FindModule(id))) {
       Log().debug("driver: motor-on for all skips inactive module {}", id);
       control.motors = snp::Tristate::kUnchanged;
     }
@@ -728,7 +623,7 @@ double RobotDriver::SleepRealTime(double seconds, const CancelCheck& cancel) {
       Clock::now() + std::chrono::duration_cast<Clock::duration>(
                          std::chrono::duration<double>(seconds));
   {
-    Lock lock(mutex_, lock_waiters_);  // only to wait on wake_; released while waiting
+    Lock lock(mutex_);  // only to wait on wake_; released while waiting
     while (Clock::now() < deadline) {
       if (shutdown_) ThrowShutdown("Sleep");
       if (cancel && cancel()) throw Error(StatusCode::kCancelled, "Sleep cancelled");
@@ -748,7 +643,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
   }
   double target = 0.0;
   {
-    Lock lock(mutex_, lock_waiters_);
+    Lock lock(mutex_);
     Backend& backend = RequireBackendLocked("Sleep");
     if (!backend.IsSimulation() || real_time) {
       lock.unlock();
@@ -759,7 +654,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
   }
   while (true) {
     if (shutdown_) ThrowShutdown("Sleep");
-    Lock lock(mutex_, lock_waiters_);
+    Lock lock(mutex_);
     if (cancel && cancel()) {
       throw Error(StatusCode::kCancelled, "Sleep cancelled at t = " + Num(sim_time_) + " s");
     }
@@ -774,12 +669,13 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
     lock.unlock();
     // Let callers that queued up during the chunk (ElapsedTime, Set...,
     // WatchState) take the robot before the next chunk.
-    while (lock_waiters_.load() > 0 && !shutdown_) std::this_thread::yield();
+    // TicketMutex: they were queued before this thread's next lock() and so
+    // get the robot first, in order.
   }
 }
 
 double RobotDriver::ElapsedTime() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   Backend& backend = RequireBackendLocked("ElapsedTime");
   if (!backend.IsSimulation()) return SecondsSince(attached_at_);
   const snp::Message m = BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime);
@@ -788,7 +684,7 @@ double RobotDriver::ElapsedTime() {
 }
 
 RobotPose RobotDriver::RobotPosition() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   Backend& backend = RequireBackendLocked("RobotPosition");
   if (!backend.IsSimulation()) {
     throw Error(StatusCode::kUnimplemented,
@@ -803,7 +699,7 @@ RobotPose RobotDriver::RobotPosition() {
 }
 
 std::vector<std::pair<int, double>> RobotDriver::GetServoAngles(const std::vector<int>& ids) {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   RequireBackendLocked("GetServoAngles");
   std::vector<int> targets = ids;
   if (targets.empty()) {
@@ -830,8 +726,8 @@ std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int sampl
     throw Error(StatusCode::kOutOfRange,
                 "accelerometer samples " + Id(samples) + " is outside [1, 16]");
   }
-  Lock lock(mutex_, lock_waiters_);
-  Backend& backend = RequireBackendLocked("GetAccelerometer");
+  Lock lock(mutex_);
+  RequireBackendLocked("GetAccelerometer");
   if (config_.FindModule(id) == nullptr) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
   }
@@ -844,15 +740,12 @@ std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int sampl
     if (e.code() != StatusCode::kFailedPrecondition) throw;
     throw Error(e.code(), std::string(e.what()) + ": switch its UART on with a control message");
   }
-  const physics::AccelerometerSpec spec =
-      backend.SimulatedRobot() ? backend.SimulatedRobot()->world().options().accelerometer
-                               : physics::AccelerometerSpec();
   std::vector<AccelerometerSample> out;
   for (const snp::AccelerometerSample& s : std::get<snp::Accelerometer>(m).samples) {
     AccelerometerSample sample;
     sample.counts = {s.x, s.y, s.z};
     for (int axis = 0; axis < 3; ++axis) {
-      sample.acceleration[axis] = (sample.counts[axis] - spec.zero_count) * spec.count_size;
+      sample.acceleration[axis] = (sample.counts[axis] - accelerometer_zero_) * accelerometer_count_;
     }
     out.push_back(sample);
   }
@@ -860,35 +753,40 @@ std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int sampl
 }
 
 void RobotDriver::SetMotorDefect(int id, MotorDefect defect) {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   if (shutdown_) ThrowShutdown("SetMotorDefect");
   if (config_.FindModule(id) == nullptr) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the configuration");
   }
-  bridge::Robot* robot = backend_ ? backend_->SimulatedRobot() : nullptr;
+  const bool simulation = backend_ && backend_->IsSimulation();
+  auto set_fault = [&](MotorDefect d) {
+    BridgeRequestLocked(snp::SetMotorFault{.module = static_cast<uint8_t>(id), .fault = ToFault(d)},
+                        snp::MessageType::kSpecialAck);
+  };
   if (defect != MotorDefect::kNone) {
     if (backend_ && connected_) {
       ModuleCallLocked(id, snp::Control{.motors = snp::Tristate::kOff}, snp::MessageType::kAck);
     }
-    if (robot != nullptr) robot->world().SetMotorFault(Wire(id), ToFault(defect));
+    if (simulation) set_fault(defect);
     motor_defects_[id] = defect;
     PushEvent(StateEvent{.kind = "defect_set", .module_id = id,
                          .detail = "motor " + std::string(DefectName(defect))});
   } else {
-    if (robot != nullptr) robot->world().SetMotorFault(Wire(id), physics::MotorFault::kNone);
+    if (simulation) set_fault(MotorDefect::kNone);
     motor_defects_.erase(id);
     PushEvent(StateEvent{.kind = "defect_cleared", .module_id = id, .detail = "motor"});
   }
 }
 
 void RobotDriver::SetModuleDefect(int id, bool defective) {
-  Lock lock(mutex_, lock_waiters_);
-  bridge::Robot& robot = RequireSimulatedRobotLocked("SetModuleDefect");
-  const int sim = Wire(id);
-  if (!robot.world().morphology().Contains(sim)) {
+  Lock lock(mutex_);
+  RequireSimulationLocked("SetModuleDefect");
+  if (id < 0 || id > cpg::kMaxModuleId ||
+      (world_morphology_ && !world_morphology_->Contains(link_->Wire(id)))) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " is not in the world");
   }
-  robot.SetModuleDefect(sim, defective);
+  BridgeRequestLocked(snp::SetModuleDefect{.module = static_cast<uint8_t>(id), .defective = defective},
+                      snp::MessageType::kSpecialAck);
   if (defective) {
     module_defects_.insert(id);
   } else {
@@ -918,18 +816,18 @@ void RobotDriver::SetGround(const GroundChange& change) {
     throw Error(StatusCode::kInvalidArgument,
                 "ground change without friction, slope or slope direction");
   }
-  Lock lock(mutex_, lock_waiters_);
-  bridge::Robot& robot = RequireSimulatedRobotLocked("SetGround");
-  if (change.friction) robot.world().SetGroundFriction(*change.friction);
-  if (change.slope || change.slope_direction) {
-    const double slope = change.slope.value_or(slope_);
-    const double direction = change.slope_direction.value_or(slope_direction_);
-    robot.world().SetSlope(slope, direction);
-    slope_ = slope;
-    slope_direction_ = direction;
-  }
+  Lock lock(mutex_);
+  RequireSimulationLocked("SetGround");
+  const snp::Message m = BridgeRequestLocked(
+      snp::SetGround{.friction = change.friction,
+                     .slope = change.slope,
+                     .slope_direction = change.slope_direction},
+      snp::MessageType::kGround);
+  const auto& ground = std::get<snp::Ground>(m);
+  slope_ = ground.slope;
+  slope_direction_ = ground.slope_direction;
   PushEvent(StateEvent{.kind = "ground_changed",
-                       .detail = "friction " + Num(robot.world().GroundFriction()) + ", slope " +
+                       .detail = "friction " + Num(ground.friction) + ", slope " +
                                  Num(slope_) + " rad towards " + Num(slope_direction_) + " rad"});
 }
 
@@ -951,7 +849,7 @@ void RobotDriver::ConnectModules(int from, snp::Connector from_connector, int to
   if (from == to) {
     throw Error(StatusCode::kInvalidArgument, "module " + Id(from) + " cannot connect to itself");
   }
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   RequireBackendLocked("ConnectModules");
   BridgeRequestLocked(snp::ConnectModules{.from = static_cast<uint8_t>(from),
                                           .from_connector = from_connector,
@@ -967,7 +865,7 @@ void RobotDriver::DisconnectModule(int id) {
   if (id < 0 || id > cpg::kMaxModuleId) {
     throw Error(StatusCode::kNotFound, "module " + Id(id) + " does not exist (ids are 0..254)");
   }
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   RequireBackendLocked("DisconnectModule");
   BridgeRequestLocked(snp::DisconnectModule{.module = static_cast<uint8_t>(id)},
                       snp::MessageType::kSpecialAck);
@@ -1012,7 +910,7 @@ void RobotDriver::SetFreeRun(double real_time_factor) {
     throw Error(StatusCode::kOutOfRange,
                 "real-time factor " + Num(real_time_factor) + " is outside [0, 100]");
   }
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   if (shutdown_) ThrowShutdown("SetFreeRun");
   if (real_time_factor > 0.0) {
     Backend& backend = RequireBackendLocked("SetFreeRun");
@@ -1026,7 +924,7 @@ void RobotDriver::SetFreeRun(double real_time_factor) {
 }
 
 void RobotDriver::FreeRunLoop() {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   Clock::time_point last = Clock::now();
   double debt = 0.0;  // simulated seconds owed to the wall clock
   while (!shutdown_) {
@@ -1057,60 +955,25 @@ void RobotDriver::FreeRunLoop() {
 // ---- State stream -------------------------------------------------------------
 
 WatchCursor RobotDriver::BeginWatch() {
-  ++watchers_;
+  state_.AddWatcher();
   {
-    Lock lock(mutex_, lock_waiters_);
+    Lock lock(mutex_);
     if (backend_ && backend_->IsSimulation() && !diverged_) RecordSampleLocked();
   }
-  WatchCursor cursor;
-  std::lock_guard<std::mutex> lock(watch_mutex_);
-  cursor.next_event = next_event_seq_;
-  return cursor;
+  return state_.NewCursor();
 }
 
-void RobotDriver::EndWatch() { --watchers_; }
+void RobotDriver::EndWatch() { state_.RemoveWatcher(); }
 
 std::optional<StateUpdate> RobotDriver::WaitForState(WatchCursor& cursor, double period,
                                                      std::chrono::milliseconds wait) {
-  std::unique_lock<std::mutex> lock(watch_mutex_);
-  auto new_sample = [&] {
-    if (!latest_sample_ || (cursor.has_sample && sample_seq_ == cursor.sample_seq)) return false;
-    if (!cursor.has_sample) return true;
-    const double t = latest_sample_->time;
-    // Time going back means a reset or a new world: report it at once.
-    return t < cursor.last.time || t >= cursor.last.time + period - 1e-9;
-  };
-  auto new_events = [&] { return !events_.empty() && events_.back().first >= cursor.next_event; };
-  watch_cv_.wait_for(lock, wait, [&] { return shutdown_.load() || new_sample() || new_events(); });
-  if (shutdown_ || (!new_sample() && !new_events())) return std::nullopt;
-  StateUpdate update;
-  for (const auto& [seq, event] : events_) {
-    if (seq >= cursor.next_event) update.events.push_back(event);
-  }
-  cursor.next_event = next_event_seq_;
-  if (new_sample()) {
-    const RobotPose& pose = *latest_sample_;
-    const double dt = pose.time - cursor.last.time;
-    if (cursor.has_sample && dt > 0.0) {
-      for (int i = 0; i < 3; ++i) {
-        cursor.velocity[i] = (pose.position[i] - cursor.last.position[i]) / dt;
-      }
-    } else {
-      cursor.velocity = {0.0, 0.0, 0.0};
-    }
-    cursor.last = pose;
-    cursor.has_sample = true;
-    cursor.sample_seq = sample_seq_;
-  }
-  update.pose = cursor.last;
-  update.velocity = cursor.velocity;
-  return update;
+  return state_.Wait(cursor, period, wait);
 }
 
 // ---- Daemon ----------------------------------------------------------------------
 
 DriverInfo RobotDriver::Info() const {
-  Lock lock(mutex_, lock_waiters_);
+  Lock lock(mutex_);
   return DriverInfo{.backend = backend_ ? backend_->Name() : "none",
                     .world = world_name_,
                     .master_node = config_.master_id,
@@ -1120,15 +983,12 @@ DriverInfo RobotDriver::Info() const {
 
 void RobotDriver::Shutdown() {
   {
-    Lock lock(mutex_, lock_waiters_);
+    Lock lock(mutex_);
     shutdown_ = true;
     free_run_factor_ = 0.0;
   }
   wake_.notify_all();
-  {
-    std::lock_guard<std::mutex> lock(watch_mutex_);
-  }
-  watch_cv_.notify_all();
+  state_.Shutdown();
 }
 
 }  // namespace yamor::host

@@ -25,6 +25,9 @@
 #include "cpg/robot_config.h"
 #include "host/backend.h"
 #include "host/id_map.h"
+#include "host/snp_link.h"
+#include "host/state_log.h"
+#include "host/ticket_mutex.h"
 #include "cpg/parameters.h"
 #include "physics/morphology.h"
 #include "proto/snp/messages.h"
@@ -88,16 +91,8 @@ struct ControlMessage {
   snp::Tristate motors = snp::Tristate::kUnchanged;  ///< Servo power.
   std::vector<int> module_ids;  ///< Targets (real ids), used when `all` is false.
   /// Every module of the configuration; motor-on then skips inactive modules
-  /// (all-zero oscillator, bridge::IsInactive), which stay unpowered unless named.
+  /// (all-zero oscillator, host::IsInactive), which stay unpowered unless named.
   bool all = false;
-};
-
-/// A pose of the central module.
-struct RobotPose {
-  double time = 0.0;                                   ///< Sample time [s].
-  std::array<double, 3> position{};                   ///< [m], world frame.
-  std::array<double, 4> orientation{1.0, 0.0, 0.0, 0.0};  ///< Quaternion w, x, y, z.
-  std::string source;                                  ///< "simulation" or "led-tracker".
 };
 
 /// A motor defect (C.2.6).
@@ -120,29 +115,6 @@ struct AccelerometerSample {
   std::array<double, 3> acceleration{};    ///< (count - zero)·δ [m/s²], module frame.
 };
 
-/// A noteworthy change of the robot, for WatchState.
-struct StateEvent {
-  std::string kind;    ///< "opened", "closed", "reset", "connected", "defect_set", "diverged", ...
-  int module_id = -1;  ///< Module concerned (real id), or -1.
-  std::string detail;  ///< Human-readable detail.
-};
-
-/// One WatchState update.
-struct StateUpdate {
-  RobotPose pose;                        ///< Latest pose.
-  std::array<double, 3> velocity{};      ///< Estimate from the previous update [m/s].
-  std::vector<StateEvent> events;        ///< Events since the previous update.
-};
-
-/// A watcher's position in the state log (one per WatchState stream).
-struct WatchCursor {
-  uint64_t next_event = 0;   ///< First event sequence number not yet delivered.
-  uint64_t sample_seq = 0;   ///< Sequence number of the last delivered sample.
-  bool has_sample = false;   ///< A sample was delivered.
-  RobotPose last;            ///< The last delivered pose.
-  std::array<double, 3> velocity{};  ///< The last velocity estimate [m/s].
-};
-
 /// What GetInfo shows about the driver.
 struct DriverInfo {
   std::string backend;        ///< "simulation", "serial", "fake" or "none".
@@ -154,12 +126,18 @@ struct DriverInfo {
 
 /// The stateful robot driver.
 ///
+/// It knows the robot only through SNP bytes on one SnpLink: everything a
+/// simulation alone can do (time, step, position, ground, defects,
+/// divergence, morphology readback) is a bridge special (docs/snp.md).
+///
 /// Thread-safety: every public method may be called from any thread. One
-/// mutex (`mutex_`) serialises everything that touches the robot or the
-/// configuration: the robot is one stateful device. A virtual-time Sleep
-/// releases it between chunks, so other calls, the free-run thread and
-/// WatchState interleave at chunk boundaries; a real-time Sleep does not hold
-/// it while waiting. The state log for WatchState has its own mutex.
+/// first-come-first-served mutex (`mutex_`, a TicketMutex) serialises
+/// everything that touches the robot or the configuration: the robot is one
+/// stateful device. A virtual-time Sleep releases it between chunks, and the
+/// ticket order hands the robot to every caller that queued meanwhile (other
+/// calls, the free-run thread, WatchState) before the next chunk; a real-time
+/// Sleep does not hold it while waiting. The WatchState log (StateLog) has
+/// its own mutex.
 class RobotDriver {
  public:
   /// A driver without a backend (no simulation open) holding `config`.
@@ -313,36 +291,16 @@ class RobotDriver {
     int Count() const;
   };
 
-  // A lock on mutex_ that counts itself as waiting until it holds it, so a
-  // long virtual-time Sleep can hand the robot over between chunks:
-  // std::mutex is not fair, and the stepping thread would otherwise re-take
-  // it before any other caller got a turn.
-  class Lock : public std::unique_lock<std::mutex> {
-   public:
-    Lock(std::mutex& mutex, std::atomic<int>& waiters)
-        : std::unique_lock<std::mutex>(mutex, std::defer_lock) {
-      waiters.fetch_add(1);
-      lock();
-      waiters.fetch_sub(1);
-    }
-  };
+  using Lock = std::unique_lock<TicketMutex>;
 
   // All *Locked methods require mutex_ held.
   Backend& RequireBackendLocked(std::string_view what) const;
-  bridge::Robot& RequireSimulatedRobotLocked(std::string_view what) const;
+  SnpLink& RequireSimulationLocked(std::string_view what) const;
   void RequireConnectedLocked(std::string_view what) const;
-  int Wire(int real) const;   // real id -> id on the wire
-  int Real(int wire) const;   // id on the wire -> real id
-  snp::Message ToWire(const snp::Message& message) const;
-  // Sends a module message to real module `id` and waits for `reply`;
-  // nullopt when nothing came within `timeout`; throws when refused.
-  std::optional<snp::Message> ModuleRequestLocked(int id, const snp::Message& message,
-                                                  snp::MessageType reply, double timeout);
-  // As above with the default reply timeout; throws UNAVAILABLE on timeout.
+  void InstallBackendLocked(std::unique_ptr<Backend> backend);
+  // Shorthands for link_ (mutex_ held, a backend attached).
   snp::Message ModuleCallLocked(int id, const snp::Message& message, snp::MessageType reply);
-  // Sends a bridge command and waits for `reply` or SpecialAck/SpecialError.
   snp::Message BridgeRequestLocked(const snp::Message& message, snp::MessageType reply);
-  void HandleUnsolicitedLocked(const snp::Frame& frame);
   void CheckDivergedLocked();
   void StepLocked(double seconds);
   void RecordSampleLocked();
@@ -352,18 +310,21 @@ class RobotDriver {
   void CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
                                      const physics::Morphology& morphology) const;
   void ResetRobotStateLocked();
-  void PushEvent(StateEvent event);
+  void PushEvent(StateEvent event) { state_.Push(std::move(event)); }
   void FreeRunLoop();
   double SleepRealTime(double seconds, const CancelCheck& cancel);
 
   const DriverOptions options_;
   std::atomic<bool> shutdown_{false};
 
-  mutable std::mutex mutex_;
-  mutable std::atomic<int> lock_waiters_{0};  // callers blocked on mutex_ (see Lock)
+  mutable TicketMutex mutex_;
   cpg::RobotConfig config_;                      // guarded by mutex_
   std::map<int, PendingModule> pending_;         // guarded by mutex_
   std::unique_ptr<Backend> backend_;             // guarded by mutex_
+  std::unique_ptr<SnpLink> link_;                // guarded by mutex_ (over backend_)
+  std::optional<physics::Morphology> world_morphology_;  // guarded by mutex_ (as opened)
+  double accelerometer_zero_ = 512.0;            // guarded by mutex_ (SimInfo on a simulation)
+  double accelerometer_count_ = 0.0395;          // guarded by mutex_ (MMA7260Q, 1.5 g range)
   std::string world_name_;                       // guarded by mutex_
   bool connected_ = false;                       // guarded by mutex_
   bool diverged_ = false;                        // guarded by mutex_
@@ -378,17 +339,10 @@ class RobotDriver {
   double free_run_factor_ = 0.0;                 // guarded by mutex_
 
   // Wakes real-time sleeps and the free-run thread on shutdown or change.
-  std::condition_variable wake_;                 // used with mutex_
+  std::condition_variable_any wake_;             // used with mutex_
   std::thread free_run_thread_;                  // guarded by mutex_ (started once)
 
-  // State log for WatchState.
-  mutable std::mutex watch_mutex_;
-  std::condition_variable watch_cv_;
-  std::atomic<int> watchers_{0};
-  uint64_t sample_seq_ = 0;                      // guarded by watch_mutex_
-  std::optional<RobotPose> latest_sample_;       // guarded by watch_mutex_
-  std::deque<std::pair<uint64_t, StateEvent>> events_;  // guarded by watch_mutex_
-  uint64_t next_event_seq_ = 0;                  // guarded by watch_mutex_
+  StateLog state_;  // WatchState's events and samples (own mutex)
 };
 
 }  // namespace yamor::host

@@ -5,19 +5,16 @@
 #include <cmath>
 #include <sstream>
 
-#include "bridge/robot.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/parameters.h"
-#include "host/sim_backend.h"
-#include "physics/world.h"
+#include "host/sim_factory.h"
+#include "host/snp_link.h"
 
 namespace yamor::host {
 
 using cpg::ApplyParameters;
 namespace {
-
-using snp::Address;
 
 constexpr double kMaxEvaluatedTime = 3600.0;  // simulated seconds per evaluation
 constexpr std::size_t kMaxTrajectorySamples = 100000;
@@ -43,88 +40,47 @@ void CheckTiming(double value, std::string_view what, bool allow_zero) {
   }
 }
 
-// The configuration with every id translated to simulation ids.
-cpg::RobotConfig ToSimulationIds(const cpg::RobotConfig& config, const IdMap& map) {
-  cpg::RobotConfig out;
-  for (cpg::ModuleParams m : config.modules) {
-    m.id = map.ToSim(m.id);
-    out.modules.push_back(m);
-  }
-  for (cpg::Coupling c : config.couplings) {
-    c.from = map.ToSim(c.from);
-    c.to = map.ToSim(c.to);
-    out.couplings.push_back(c);
-  }
-  for (const auto& [child, parent] : config.bluetooth_parent) {
-    out.bluetooth_parent[map.ToSim(child)] = map.ToSim(parent);
-  }
-  out.master_id = map.ToSim(config.master_id);
-  return out;
-}
-
-// Runs the emulated robot through SNP frames, as the driver would.
+// Runs a simulated robot of its own through SNP, exactly as the driver
+// would: the worker builds the backend and then knows it only by bytes.
 class Session {
  public:
-  Session(const physics::Morphology& morphology, const bridge::RobotOptions& options)
-      : backend_(morphology, options) {}
+  Session(physics::Morphology morphology, const SimulationOptions& options, const IdMap& id_map)
+      : backend_(MakeSimBackend(std::move(morphology), options)), link_(*backend_, id_map) {}
 
-  // Sends a configuration frame and checks its reply.
-  void Configure(const snp::Frame& frame) {
-    backend_.Send(frame);
-    bool answered = false;
-    while (std::optional<snp::Frame> reply = backend_.Receive(std::chrono::milliseconds(0))) {
-      answered = true;
-      const snp::Message m = snp::DecodeMessage(*reply);
-      if (const auto* ack = std::get_if<snp::Ack>(&m); ack && ack->status != StatusCode::kOk) {
-        throw Error(ack->status, "module " + std::to_string(reply->source.id) + " refused " +
-                                     std::string(snp::MessageTypeName(ack->acked)) + " (" +
-                                     std::string(StatusCodeName(ack->status)) + ")");
-      }
-      if (const auto* ack = std::get_if<snp::ConnectAck>(&m);
-          ack && ack->status != snp::LinkStatus::kUp) {
-        throw Error(StatusCode::kInvalidArgument,
-                    "bluetooth link " + std::to_string(reply->source.id) + " -> " +
-                        std::to_string(ack->child) + " failed");
-      }
-    }
-    if (!answered) {
-      throw Error(StatusCode::kUnavailable, "module " + std::to_string(frame.destination.id) +
-                                                " did not answer " +
-                                                std::string(snp::MessageTypeName(frame.type)));
-    }
-  }
+  // Sends the configuration (real ids) and checks every answer.
+  void Configure(const cpg::RobotConfig& config) { link_.Configure(config); }
 
-  // Advances by `steps` physics steps; false when the world diverged.
-  bool Step(int64_t steps, double time_step) {
-    backend_.Send(snp::MakeFrame(Address::Host(), Address::Bridge(),
-                                 snp::Step{.duration = static_cast<double>(steps) * time_step}));
-    std::optional<snp::Frame> reply = backend_.Receive(std::chrono::milliseconds(0));
-    if (world().Diverged()) return false;
-    if (!reply) throw Error(StatusCode::kInternal, "the simulation did not answer Step");
-    const snp::Message m = snp::DecodeMessage(*reply);
-    if (const auto* error = std::get_if<snp::SpecialError>(&m)) {
-      throw Error(error->code, "Step failed: " + error->text);
+  // Advances by `steps` physics steps; false when the world diverged, with
+  // the reason in `divergence`.
+  bool Step(int64_t steps, double time_step, std::string& divergence) {
+    std::optional<Error> failure;
+    try {
+      link_.BridgeRequest(snp::Step{.duration = static_cast<double>(steps) * time_step},
+                          snp::MessageType::kStepDone);
+    } catch (const Error& e) {
+      failure = e;
     }
+    const snp::Message m = link_.BridgeRequest(snp::GetDivergence{}, snp::MessageType::kDivergence);
+    const auto& d = std::get<snp::Divergence>(m);
+    if (d.diverged) {
+      divergence = d.reason + " at t = " + Num(d.time) + " s";
+      return false;
+    }
+    if (failure) throw *failure;
     return true;
   }
 
   RobotPose Position() {
-    backend_.Send(snp::MakeFrame(Address::Host(), Address::Bridge(), snp::GetRobotPosition{}));
-    std::optional<snp::Frame> reply = backend_.Receive(std::chrono::milliseconds(0));
-    if (!reply) throw Error(StatusCode::kInternal, "the simulation did not answer GetRobotPosition");
-    const snp::Message m = snp::DecodeMessage(*reply);
-    if (const auto* error = std::get_if<snp::SpecialError>(&m)) {
-      throw Error(error->code, "GetRobotPosition failed: " + error->text);
-    }
+    const snp::Message m =
+        link_.BridgeRequest(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
     const auto& p = std::get<snp::RobotPosition>(m);
     return RobotPose{.time = p.time, .position = p.position, .orientation = p.orientation,
                      .source = "simulation"};
   }
 
-  const physics::World& world() { return backend_.SimulatedRobot()->world(); }
-
  private:
-  SimBackend backend_;
+  std::unique_ptr<Backend> backend_;
+  SnpLink link_;
 };
 
 }  // namespace
@@ -142,7 +98,7 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
                 "trajectory period " + Num(spec.trajectory_period) + " s is negative");
   }
   const double time_step =
-      spec.time_step == 0.0 ? physics::WorldOptions().time_step : spec.time_step;
+      spec.time_step == 0.0 ? DefaultSimulationTimeStep() : spec.time_step;
   if (!std::isfinite(time_step)) {
     throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + Num(time_step));
   }
@@ -172,22 +128,20 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   std::vector<int> ids;
   for (const cpg::ModuleParams& m : config.modules) ids.push_back(m.id);
   spec.id_map.CheckInjective(ids);
-  const cpg::RobotConfig wire = ToSimulationIds(config, spec.id_map);
-  for (const cpg::ModuleParams& m : wire.modules) {
-    if (!spec.morphology.Contains(m.id) || spec.morphology.Module(m.id).free) {
+  for (const cpg::ModuleParams& m : config.modules) {
+    const int sim = spec.id_map.ToSim(m.id);
+    if (!spec.morphology.Contains(sim) || spec.morphology.Module(sim).free) {
       throw Error(StatusCode::kInvalidArgument,
-                  "module " + std::to_string(spec.id_map.ToReal(m.id)) +
+                  "module " + std::to_string(m.id) +
                       " of the configuration is not part of world " + spec.morphology.source());
     }
   }
 
-  bridge::RobotOptions options;
-  options.world.time_step = time_step;
-  options.world.seed = spec.seed;
-  options.phase_seed = spec.seed;
-  options.master = wire.master_id;
-  Session session(spec.morphology, options);
-  for (const snp::Frame& frame : bridge::ConfigurationFrames(wire)) session.Configure(frame);
+  const SimulationOptions options{.time_step = time_step,
+                                  .seed = spec.seed,
+                                  .master = spec.id_map.ToSim(config.master_id)};
+  Session session(spec.morphology, options, spec.id_map);
+  session.Configure(config);
 
   EvaluationResult result;
   const int64_t chunk = std::max<int64_t>(1, steps_of(kChunk));
@@ -203,10 +157,10 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     int64_t next = std::min(end_steps, step + chunk);
     if (step < warm_steps) next = std::min(next, warm_steps);
     if (sample_every > 0) next = std::min(next, (step / sample_every + 1) * sample_every);
-    if (!session.Step(next - step, time_step)) {
-      const physics::DivergenceInfo& info = session.world().Divergence();
+    std::string divergence;
+    if (!session.Step(next - step, time_step, divergence)) {
       result.diverged = true;
-      result.divergence = info.reason + " at t = " + Num(session.world().Time()) + " s";
+      result.divergence = divergence;
       result.velocity = 0.0;
       result.distance = 0.0;
       Log().info("evaluate: world diverged: {}", result.divergence);

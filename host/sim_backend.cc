@@ -36,3 +36,20 @@ std::optional<snp::Frame> SimBackend::Receive(std::chrono::milliseconds /*timeou
 }
 
 }  // namespace yamor::host
+
+namespace yamor::host {
+
+double DefaultSimulationTimeStep() { return physics::WorldOptions().time_step; }
+
+std::unique_ptr<Backend> MakeSimBackend(physics::Morphology morphology,
+                                        const SimulationOptions& options) {
+  bridge::RobotOptions robot_options;
+  robot_options.world.time_step =
+      options.time_step == 0.0 ? DefaultSimulationTimeStep() : options.time_step;
+  robot_options.world.seed = options.seed;
+  robot_options.phase_seed = options.seed;
+  if (options.master >= 0) robot_options.master = options.master;
+  return std::make_unique<SimBackend>(std::move(morphology), robot_options);
+}
+
+}  // namespace yamor::host

@@ -8,6 +8,7 @@
 
 #include "bridge/robot.h"
 #include "host/backend.h"
+#include "host/sim_factory.h"
 #include "proto/snp/decoder.h"
 
 namespace yamor::host {
@@ -31,8 +32,9 @@ class SimBackend final : public Backend {
   bool IsSimulation() const override { return true; }
   /// "simulation".
   std::string Name() const override { return "simulation"; }
-  /// The emulated robot.
-  bridge::Robot* SimulatedRobot() override { return &robot_; }
+  /// The emulated robot, for tests and the in-process backend's own use
+  /// only: the driver and Evaluate know it through bytes alone.
+  bridge::Robot& robot() { return robot_; }
 
   /// Bytes sent to the robot so far (for tests and statistics).
   uint64_t bytes_sent() const { return bytes_sent_; }

@@ -9,11 +9,16 @@
 #include <string>
 
 #include "bridge/robot.h"
+#include "host/config_frames.h"
 #include "cpg/config_xml.h"
 #include "proto/snp/snp.h"
 
 namespace yamor::bridge {
 namespace {
+
+// The host builds configuration frames (host/config_frames.h).
+using host::ConfigurationFrames;
+using host::IsInactive;
 
 const std::string kSourceDir = YAMOR_SOURCE_DIR;
 

@@ -1,4 +1,5 @@
 #include "bridge/robot.h"
+#include "host/config_frames.h"
 
 #include <gtest/gtest.h>
 
@@ -13,6 +14,10 @@
 
 namespace yamor::bridge {
 namespace {
+
+// The host builds configuration frames (host/config_frames.h).
+using host::ConfigurationFrames;
+using host::IsInactive;
 
 using snp::Address;
 
@@ -475,6 +480,44 @@ TEST(BridgeSpecialsTest, UpsideDownDivergenceAndSimInfo) {
   EXPECT_EQ(info.time_step, robot.world().options().time_step);
   EXPECT_EQ(info.accelerometer_zero, robot.world().options().accelerometer.zero_count);
   EXPECT_EQ(info.accelerometer_count, robot.world().options().accelerometer.count_size);
+}
+
+TEST(BridgeSpecialsTest, MorphologyReadbackIsChunkedFromOneSnapshot) {
+  Robot robot(SnakeMorphology());
+  const std::string expected = robot.world().CurrentMorphology().ToXml();
+  ASSERT_GT(expected.size(), snp::kMaxMorphologyChunkSize);
+  std::string text;
+  uint32_t total = 0;
+  do {
+    const auto chunk = SendExpect<snp::MorphologyChunk>(
+        robot, ToBridge(snp::ReadMorphology{.offset = static_cast<uint32_t>(text.size()),
+                                            .length = snp::kMaxMorphologyChunkSize}));
+    ASSERT_EQ(chunk.offset, text.size());
+    ASSERT_FALSE(chunk.data.empty());
+    total = chunk.total;
+    text.append(chunk.data.begin(), chunk.data.end());
+    // The robot changes mid-read: later chunks still come from the snapshot.
+    if (text.size() == snp::kMaxMorphologyChunkSize) {
+      SendExpect<snp::SpecialAck>(robot, ToBridge(snp::DisconnectModule{.module = 8}));
+    }
+  } while (text.size() < total);
+  EXPECT_EQ(text, expected);
+  const auto end = SendExpect<snp::MorphologyChunk>(
+      robot, ToBridge(snp::ReadMorphology{.offset = total + 10, .length = 1}));
+  EXPECT_EQ(end.offset, total);
+  EXPECT_TRUE(end.data.empty());
+  // A new read from 0 sees the robot as it is now.
+  const auto first = SendExpect<snp::MorphologyChunk>(
+      robot, ToBridge(snp::ReadMorphology{.offset = 0, .length = 10}));
+  EXPECT_EQ(first.total, robot.world().CurrentMorphology().ToXml().size());
+  EXPECT_NE(first.total, total);
+}
+
+TEST(BridgeSpecialsTest, MorphologyReadPastZeroNeedsASnapshot) {
+  Robot robot(SnakeMorphology());
+  const auto error = SendExpect<snp::SpecialError>(
+      robot, ToBridge(snp::ReadMorphology{.offset = 5, .length = 5}));
+  EXPECT_EQ(error.code, StatusCode::kFailedPrecondition);
 }
 
 }  // namespace

@@ -166,7 +166,7 @@ TEST(DriverSimTest, DivergenceIsReportedAndResetRecovers) {
   driver.AttachBackend(std::move(backend), "quadruped");
   driver.ConnectRobot(0.0, false, nullptr);
   driver.Sleep(0.1, false, nullptr);
-  sim->SimulatedRobot()->world().InjectNonFiniteForTesting(0);
+  sim->robot().world().InjectNonFiniteForTesting(0);
   std::string message;
   EXPECT_EQ(CodeOf([&] { driver.Sleep(1.0, false, nullptr); }, &message),
             StatusCode::kFailedPrecondition);
@@ -182,8 +182,8 @@ TEST(DriverSimTest, FaultsAndGroundReachTheWorld) {
   RobotDriver driver({}, testing::QuadrupedConfig());
   const physics::Morphology morphology = Quadruped().morphology;
   auto backend = std::make_unique<SimBackend>(morphology, bridge::RobotOptions{});
-  physics::World& world = backend->SimulatedRobot()->world();
-  bridge::Robot& robot = *backend->SimulatedRobot();
+  physics::World& world = backend->robot().world();
+  bridge::Robot& robot = backend->robot();
   driver.AttachBackend(std::move(backend), "quadruped");
   driver.ConnectRobot(0.0, false, nullptr);
   driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
@@ -290,7 +290,7 @@ TEST(DriverSimTest, GetMorphologyIsTheRobotAsItIsNow) {
 TEST(DriverSimTest, ABodyWithoutAValidMorphologyIsAFailedPrecondition) {
   RobotDriver driver({}, testing::QuadrupedConfig());
   auto backend = std::make_unique<SimBackend>(testing::SnakeWithSpares(), bridge::RobotOptions{});
-  physics::World& world = backend->SimulatedRobot()->world();
+  physics::World& world = backend->robot().world();
   driver.AttachBackend(std::move(backend), "snake+spares");
   testing::MakeUnplaceable(world);
   std::string message;

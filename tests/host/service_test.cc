@@ -389,7 +389,7 @@ TEST_F(ServiceTest, GetMorphologyAndEvaluateUseTheTransformedRobot) {
 // GetMorphology and for Evaluate on the open world, never another body.
 TEST_F(ServiceTest, AnOpenWorldWithoutAValidMorphologyIsAFailedPrecondition) {
   auto backend = std::make_unique<SimBackend>(testing::SnakeWithSpares(), bridge::RobotOptions{});
-  physics::World& world = backend->SimulatedRobot()->world();
+  physics::World& world = backend->robot().world();
   driver_->AttachBackend(std::move(backend), "snake+spares");
   testing::MakeUnplaceable(world);
   const grpc::Status morphology = Call(*stub_, &v1::Host::Stub::GetMorphology, Empty());

@@ -56,6 +56,7 @@
 #include <vector>
 
 #include "bridge/robot.h"
+#include "host/config_frames.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
@@ -187,7 +188,7 @@ RobotConfig SnakeConfig(int n) {
 
 // The CPG exactly as bridge::Robot runs it: parameters rounded to the
 // firmware's floats, modules and couplings in id order, phases seeded, one
-// RK4 step before each world step; inactive modules (bridge::IsInactive)
+// RK4 step before each world step; inactive modules (host::IsInactive)
 // unpowered, as ConfigurationFrames leaves them.
 class Gait {
  public:
@@ -196,7 +197,7 @@ class Gait {
     std::map<int, const yamor::cpg::ModuleParams*> by_id;
     for (const auto& m : config.modules) by_id[m.id] = &m;
     for (const auto& [id, m] : by_id) {
-      if (yamor::bridge::IsInactive(*m)) inactive_.push_back(id);
+      if (yamor::host::IsInactive(*m)) inactive_.push_back(id);
       firmware.modules.push_back({.id = id,
                                   .amplitude = static_cast<float>(m->amplitude),
                                   .offset = static_cast<float>(m->offset),
@@ -274,7 +275,7 @@ Evaluation EvaluateBridge(const Morphology& morphology, const RobotConfig& confi
   options.phase_seed = kPhaseSeed;
   yamor::bridge::Robot robot(morphology, options);
   std::vector<yamor::snp::Frame> out;
-  for (const yamor::snp::Frame& frame : yamor::bridge::ConfigurationFrames(config)) {
+  for (const yamor::snp::Frame& frame : yamor::host::ConfigurationFrames(config)) {
     robot.HandleFrame(frame, out);
   }
   try {

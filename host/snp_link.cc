@@ -1,0 +1,209 @@
+#include "host/snp_link.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include "common/log.h"
+#include "common/status.h"
+#include "host/config_frames.h"
+
+namespace yamor::host {
+namespace {
+
+using snp::Address;
+using Clock = std::chrono::steady_clock;
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+std::chrono::milliseconds ToMillis(double seconds) {
+  return std::chrono::milliseconds(static_cast<int64_t>(std::ceil(std::max(0.0, seconds) * 1e3)));
+}
+
+std::chrono::milliseconds Remaining(Clock::time_point deadline) {
+  return std::max(std::chrono::milliseconds(0),
+                  std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()));
+}
+
+}  // namespace
+
+SnpLink::SnpLink(Backend& backend, IdMap id_map, SnpLinkOptions options)
+    : backend_(&backend),
+      id_map_(std::move(id_map)),
+      options_(options),
+      map_ids_(backend.IsSimulation()) {}
+
+int SnpLink::Wire(int real) const { return map_ids_ ? id_map_.ToSim(real) : real; }
+
+int SnpLink::Real(int wire) const { return map_ids_ ? id_map_.ToReal(wire) : wire; }
+
+snp::Message SnpLink::ToWire(const snp::Message& message) const {
+  auto wire8 = [this](int real) { return static_cast<uint8_t>(Wire(real)); };
+  snp::Message out = message;
+  if (auto* m = std::get_if<snp::ConnectRequest>(&out)) m->child = wire8(m->child);
+  if (auto* m = std::get_if<snp::SetCoupling>(&out)) m->to = wire8(m->to);
+  if (auto* m = std::get_if<snp::SetMasterNode>(&out)) m->module = wire8(m->module);
+  if (auto* m = std::get_if<snp::DisconnectModule>(&out)) m->module = wire8(m->module);
+  if (auto* m = std::get_if<snp::SetMotorFault>(&out)) m->module = wire8(m->module);
+  if (auto* m = std::get_if<snp::SetModuleDefect>(&out)) m->module = wire8(m->module);
+  if (auto* m = std::get_if<snp::ConnectModules>(&out)) {
+    m->from = wire8(m->from);
+    m->to = wire8(m->to);
+  }
+  return out;
+}
+
+void SnpLink::SetUnsolicitedHandler(std::function<void(const snp::Frame&)> handler) {
+  unsolicited_ = std::move(handler);
+}
+
+void SnpLink::Unsolicited(const snp::Frame& frame) {
+  if (unsolicited_) {
+    unsolicited_(frame);
+    return;
+  }
+  Log().debug("snp link: ignoring {} from {}", snp::MessageTypeName(frame.type),
+              snp::ToString(frame.source));
+}
+
+std::optional<snp::Message> SnpLink::ModuleRequest(int id, const snp::Message& message,
+                                                   snp::MessageType reply, double timeout) {
+  const int wire = Wire(id);
+  const Address module = Address::Module(static_cast<uint8_t>(wire));
+  const snp::Message wire_message = ToWire(message);
+  const snp::MessageType type = snp::TypeOf(message);
+  backend_->Send(snp::MakeFrame(Address::Host(), module, wire_message));
+  const Clock::time_point deadline = Clock::now() + ToMillis(timeout);
+  while (true) {
+    std::optional<snp::Frame> frame = backend_->Receive(Remaining(deadline));
+    if (!frame) return std::nullopt;  // the backend waited the rest for nothing
+    if (frame->source != module || frame->destination.kind != snp::NodeKind::kHost) {
+      Unsolicited(*frame);
+      continue;
+    }
+    snp::Message m;
+    try {
+      m = snp::DecodeMessage(*frame);
+    } catch (const Error& e) {
+      Log().warn("snp link: undecodable reply from module {}: {}", id, e.what());
+      continue;
+    }
+    if (const auto* ack = std::get_if<snp::Ack>(&m); ack && ack->acked == type) {
+      if (ack->status != StatusCode::kOk) {
+        throw Error(ack->status, "module " + std::to_string(id) + " refused " +
+                                     std::string(snp::MessageTypeName(type)) + " (" +
+                                     std::string(StatusCodeName(ack->status)) + ")");
+      }
+      if (reply == snp::MessageType::kAck) return m;
+    }
+    if (snp::TypeOf(m) == reply && reply != snp::MessageType::kAck) {
+      if (const auto* ack = std::get_if<snp::ConnectAck>(&m)) {
+        // A late answer to an earlier link attempt is not ours.
+        if (ack->child != std::get<snp::ConnectRequest>(wire_message).child) continue;
+        snp::ConnectAck real = *ack;
+        real.child = static_cast<uint8_t>(Real(ack->child));
+        return real;
+      }
+      return m;
+    }
+    Unsolicited(*frame);
+  }
+}
+
+snp::Message SnpLink::ModuleCall(int id, const snp::Message& message, snp::MessageType reply) {
+  std::optional<snp::Message> m = ModuleRequest(id, message, reply, options_.reply_timeout);
+  if (!m) {
+    throw Error(StatusCode::kUnavailable,
+                "module " + std::to_string(id) + " did not answer " +
+                    std::string(snp::MessageTypeName(snp::TypeOf(message))) +
+                    (backend_->IsSimulation() ? ""
+                                              : " within " + Num(options_.reply_timeout) + " s") +
+                    " (is it linked? the robot may be half-configured)");
+  }
+  return *m;
+}
+
+snp::Message SnpLink::BridgeRequest(const snp::Message& message, snp::MessageType reply) {
+  const snp::MessageType type = snp::TypeOf(message);
+  backend_->Send(snp::MakeFrame(Address::Host(), Address::Bridge(), ToWire(message)));
+  const Clock::time_point deadline = Clock::now() + ToMillis(options_.reply_timeout);
+  while (true) {
+    std::optional<snp::Frame> frame = backend_->Receive(Remaining(deadline));
+    if (!frame) {
+      throw Error(StatusCode::kUnavailable, "the " + backend_->Name() +
+                                                " backend did not answer " +
+                                                std::string(snp::MessageTypeName(type)));
+    }
+    if (frame->source.kind != snp::NodeKind::kBridge) {
+      Unsolicited(*frame);
+      continue;
+    }
+    snp::Message m;
+    try {
+      m = snp::DecodeMessage(*frame);
+    } catch (const Error& e) {
+      Log().warn("snp link: undecodable bridge reply: {}", e.what());
+      continue;
+    }
+    if (const auto* error = std::get_if<snp::SpecialError>(&m); error && error->acked == type) {
+      throw Error(error->code, std::string(snp::MessageTypeName(type)) + " failed: " + error->text);
+    }
+    if (const auto* ack = std::get_if<snp::SpecialAck>(&m);
+        ack && ack->acked == type && reply == snp::MessageType::kSpecialAck) {
+      return m;
+    }
+    if (snp::TypeOf(m) == reply && reply != snp::MessageType::kSpecialAck) return m;
+    Unsolicited(*frame);
+  }
+}
+
+void SnpLink::Configure(const cpg::RobotConfig& config) {
+  for (const snp::Frame& frame : ConfigurationFrames(config)) {
+    const snp::Message message = snp::DecodeMessage(frame);
+    const int id = frame.destination.id;
+    const snp::MessageType reply = std::holds_alternative<snp::ConnectRequest>(message)
+                                       ? snp::MessageType::kConnectAck
+                                       : snp::MessageType::kAck;
+    std::optional<snp::Message> answer =
+        ModuleRequest(id, message, reply, options_.reply_timeout);
+    if (!answer) {
+      throw Error(StatusCode::kUnavailable, "module " + std::to_string(id) + " did not answer " +
+                                                std::string(snp::MessageTypeName(frame.type)));
+    }
+    if (const auto* ack = std::get_if<snp::ConnectAck>(&*answer);
+        ack && ack->status != snp::LinkStatus::kUp) {
+      throw Error(StatusCode::kInvalidArgument, "bluetooth link " + std::to_string(id) + " -> " +
+                                                    std::to_string(ack->child) + " failed");
+    }
+  }
+}
+
+std::string SnpLink::ReadMorphologyXml() {
+  std::string xml;
+  uint32_t total = 0;
+  do {
+    const snp::Message m = BridgeRequest(
+        snp::ReadMorphology{.offset = static_cast<uint32_t>(xml.size()),
+                            .length = static_cast<uint8_t>(snp::kMaxMorphologyChunkSize)},
+        snp::MessageType::kMorphologyChunk);
+    const auto& chunk = std::get<snp::MorphologyChunk>(m);
+    if (!xml.empty() && chunk.total != total) {
+      throw Error(StatusCode::kInternal, "ReadMorphology: the snapshot size changed");
+    }
+    total = chunk.total;
+    if (chunk.offset != xml.size() || (chunk.data.empty() && xml.size() < total)) {
+      throw Error(StatusCode::kInternal, "ReadMorphology: chunk at offset " +
+                                             std::to_string(chunk.offset) + ", expected " +
+                                             std::to_string(xml.size()));
+    }
+    xml.append(chunk.data.begin(), chunk.data.end());
+  } while (xml.size() < total);
+  return xml;
+}
+
+}  // namespace yamor::host

@@ -1,0 +1,30 @@
+# Fails (ctest host_include_guard) when a file of host/ outside the in-process
+# backend includes a bridge/ or physics/ header (DESIGN.md, "One SNP path":
+# the driver and Evaluate know the robot only through SNP bytes).
+# Allowed everywhere: physics/morphology.h and physics/script.h, the robot
+# description model and its XML parsers (no world, no ODE); the RPC API and
+# the driver still take and return a physics::Morphology value.
+# Run: cmake -DSOURCE_DIR=<repo> -P tests/host/include_guard.cmake
+file(GLOB host_files "${SOURCE_DIR}/host/*.h" "${SOURCE_DIR}/host/*.cc")
+set(backend_files sim_backend.h sim_backend.cc)
+set(allowed_headers physics/morphology.h physics/script.h)
+set(violations "")
+foreach(path IN LISTS host_files)
+  get_filename_component(name "${path}" NAME)
+  if(name IN_LIST backend_files)
+    continue()
+  endif()
+  file(STRINGS "${path}" includes REGEX "^[ \t]*#[ \t]*include[ \t]*[\"<](bridge|physics)/")
+  foreach(line IN LISTS includes)
+    string(REGEX REPLACE "^[ \t]*#[ \t]*include[ \t]*[\"<]([^\">]+)[\">].*$" "\\1" header "${line}")
+    if(NOT header IN_LIST allowed_headers)
+      string(APPEND violations "  host/${name}: #include \"${header}\"\n")
+    endif()
+  endforeach()
+endforeach()
+if(violations)
+  message(FATAL_ERROR "host/ reaches into the simulation outside host/sim_backend.*:\n"
+                      "${violations}Talk to the robot through SnpLink (bridge specials, docs/snp.md).")
+endif()
+list(LENGTH host_files count)
+message(STATUS "host include guard: ${count} files checked, none reaches into bridge/ or physics/")
