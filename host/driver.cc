@@ -928,6 +928,15 @@ void RobotDriver::SetGround(const GroundChange& change) {
                                  Num(slope_) + " rad towards " + Num(slope_direction_) + " rad"});
 }
 
+void RobotDriver::TurnUpsideDown() {
+  Lock lock(mutex_);
+  RequireSimulationLocked("TurnUpsideDown");
+  CheckDivergedLocked();
+  BridgeRequestLocked(snp::TurnUpsideDown{}, snp::MessageType::kSpecialAck);
+  PushEvent(StateEvent{.kind = "turned_upside_down"});
+  if (state_.Watched()) RecordSampleLocked();
+}
+
 void RobotDriver::ConnectModules(int from, snp::Connector from_connector, int to,
                                  snp::Connector to_connector, double angle_degrees) {
   if (!std::isfinite(angle_degrees)) {

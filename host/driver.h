@@ -245,6 +245,9 @@ class RobotDriver {
   void SetModuleDefect(int id, bool defective);
   /// Changes friction and slope (simulation only).
   void SetGround(const GroundChange& change);
+  /// Turns the robot upside down about its centre (simulation only; a
+  /// bridge special, thesis 7.5.2).
+  void TurnUpsideDown();
   /// Physically attaches free module `from` (a bridge command; backends
   /// without reconfiguration answer UNIMPLEMENTED). angle_degrees: multiple
   /// of 15 in [0, 360).

@@ -451,6 +451,10 @@ grpc::Status HostServiceImpl::GetAccelerometer(grpc::ServerContext* context,
   });
 }
 
+grpc::Status HostServiceImpl::TurnUpsideDown(grpc::ServerContext* context, const Empty*, Empty*) {
+  return Serve(context, "TurnUpsideDown", [&] { driver_.TurnUpsideDown(); });
+}
+
 grpc::Status HostServiceImpl::ResetSimulation(grpc::ServerContext* context, const Empty*, Empty*) {
   return Serve(context, "ResetSimulation", [&] { driver_.ResetSimulation(); });
 }

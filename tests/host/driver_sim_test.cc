@@ -225,6 +225,26 @@ TEST(DriverSimTest, FaultsAndGroundReachTheWorld) {
   EXPECT_FALSE(world.ModuleDefective(5));
 }
 
+TEST(DriverSimTest, TurnUpsideDownFlipsTheCentralModule) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  driver.OpenSimulation(Quadruped());
+  const RobotPose before = driver.RobotPosition();
+  driver.TurnUpsideDown();
+  const RobotPose after = driver.RobotPosition();
+  // The central module's up axis (quaternion w, x, y, z) points down now.
+  auto up_z = [](const RobotPose& p) {
+    const auto& q = p.orientation;
+    return 1.0 - 2.0 * (q[1] * q[1] + q[2] * q[2]);
+  };
+  EXPECT_GT(up_z(before), 0.9);
+  EXPECT_LT(up_z(after), -0.9);
+  EXPECT_NEAR(Horizontal(before, after), 0.0, 0.02) << "about its centre";
+  driver.Sleep(1.0, false, nullptr);
+  EXPECT_TRUE(std::isfinite(driver.RobotPosition().position[2]));
+  RobotDriver no_world({}, testing::QuadrupedConfig());
+  EXPECT_EQ(CodeOf([&] { no_world.TurnUpsideDown(); }), StatusCode::kFailedPrecondition);
+}
+
 TEST(DriverSimTest, FreeRunAdvancesTheWorldOnItsOwn) {
   RobotDriver driver({}, testing::QuadrupedConfig());
   driver.OpenSimulation(Quadruped());

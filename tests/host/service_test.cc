@@ -749,6 +749,8 @@ TEST_F(ServiceTest, BadRequestsGetTheirCodesAndTheServerSurvives) {
       {"connect without simulation", C(&S::ConnectRobot, connect(0)), Code::FAILED_PRECONDITION},
       {"morphology without simulation", C(&S::GetMorphology, Empty()), Code::FAILED_PRECONDITION},
       {"reset without simulation", C(&S::ResetSimulation, Empty()), Code::FAILED_PRECONDITION},
+      {"upside down without simulation", C(&S::TurnUpsideDown, Empty()),
+       Code::FAILED_PRECONDITION},
       {"ground without simulation", C(&S::SetGround, ground(1.0, std::nullopt)),
        Code::FAILED_PRECONDITION},
       {"free-run without simulation",

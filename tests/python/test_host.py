@@ -54,6 +54,7 @@ WRAPPER = {
     "GetServoAngles": "servo_angles",
     "GetAccelerometer": "accelerometer",
     "ResetSimulation": "reset",
+    "TurnUpsideDown": "turn_upside_down",
     "WatchState": "watch",
     "Evaluate": "evaluate",
     "SetFreeRun": "set_free_run",

@@ -63,22 +63,37 @@ class YamordProcess {
     return text;
   }
 
-  /// Waits for "yamord: listening on 127.0.0.1:PORT"; the port, 0 on failure.
-  int WaitForPort(std::chrono::seconds timeout = std::chrono::seconds(30)) {
+  /// The next stdout line (without its newline); what came so far when the
+  /// stream ends (then `*ended` is set) or `timeout` passes.
+  std::string ReadLine(std::chrono::seconds timeout = std::chrono::seconds(30),
+                       bool* ended = nullptr) {
     std::string line;
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < deadline) {
       pollfd p{out_, POLLIN, 0};
       if (poll(&p, 1, 100) <= 0) continue;
       char c = 0;
-      if (read(out_, &c, 1) != 1) return 0;
-      if (c != '\n') {
-        line.push_back(c);
-        continue;
+      if (read(out_, &c, 1) != 1) {
+        if (ended != nullptr) *ended = true;
+        break;
       }
-      const std::string prefix = "yamord: listening on 127.0.0.1:";
+      if (c == '\n') return line;
+      line.push_back(c);
+    }
+    return line;
+  }
+
+  /// Waits for "yamord: listening on 127.0.0.1:PORT"; the port, 0 on failure.
+  int WaitForPort(std::chrono::seconds timeout = std::chrono::seconds(30)) {
+    const std::string prefix = "yamord: listening on 127.0.0.1:";
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      const auto left = std::chrono::duration_cast<std::chrono::seconds>(
+          deadline - std::chrono::steady_clock::now());
+      bool ended = false;
+      const std::string line = ReadLine(left + std::chrono::seconds(1), &ended);
       if (line.rfind(prefix, 0) == 0) return std::stoi(line.substr(prefix.size()));
-      line.clear();
+      if (ended) return 0;
     }
     return 0;
   }

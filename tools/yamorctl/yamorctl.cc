@@ -331,6 +331,9 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
   simple("reset", "Restore the simulation to its state when opened (time 0)", [empty](Session& s) {
     return s.Unary(&v1::Host::Stub::ResetSimulation, empty, s.Timeout());
   });
+  simple("upside-down", "Turn the simulated robot upside down about its centre", [empty](Session& s) {
+    return s.Unary(&v1::Host::Stub::TurnUpsideDown, empty, s.Timeout());
+  });
 }
 
 // ---- simulation, connection, control ---------------------------------------------

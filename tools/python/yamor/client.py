@@ -531,6 +531,10 @@ class Host:
         """Restores the simulation to its state when opened (ResetSimulation)."""
         self._call("ResetSimulation", self._EMPTY, timeout)
 
+    def turn_upside_down(self, timeout: Optional[float] = None) -> None:
+        """Turns the simulated robot upside down about its centre (TurnUpsideDown)."""
+        self._call("TurnUpsideDown", self._EMPTY, timeout)
+
     def set_free_run(self, real_time_factor: float, timeout: Optional[float] = None) -> None:
         """Steps the world in the background at a real-time factor; 0 stops (SetFreeRun)."""
         self._call("SetFreeRun", pb.SetFreeRunRequest(real_time_factor=real_time_factor),

@@ -217,6 +217,11 @@ class HostStub(object):
                 request_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
                 response_deserializer=google_dot_protobuf_dot_empty__pb2.Empty.FromString,
                 )
+        self.TurnUpsideDown = channel.unary_unary(
+                '/yamor.v1.Host/TurnUpsideDown',
+                request_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
+                response_deserializer=google_dot_protobuf_dot_empty__pb2.Empty.FromString,
+                )
         self.WatchState = channel.unary_stream(
                 '/yamor.v1.Host/WatchState',
                 request_serializer=yamor_dot_v1_dot_host__pb2.WatchStateRequest.SerializeToString,
@@ -526,6 +531,13 @@ class HostServicer(object):
         context.set_details('Method not implemented!')
         raise NotImplementedError('Method not implemented!')
 
+    def TurnUpsideDown(self, request, context):
+        """Turns the simulated robot upside down about its centre (thesis 7.5.2).
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
     def WatchState(self, request, context):
         """Streams the robot's state at a chosen period, plus events.
         """
@@ -750,6 +762,11 @@ def add_HostServicer_to_server(servicer, server):
             ),
             'ResetSimulation': grpc.unary_unary_rpc_method_handler(
                     servicer.ResetSimulation,
+                    request_deserializer=google_dot_protobuf_dot_empty__pb2.Empty.FromString,
+                    response_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
+            ),
+            'TurnUpsideDown': grpc.unary_unary_rpc_method_handler(
+                    servicer.TurnUpsideDown,
                     request_deserializer=google_dot_protobuf_dot_empty__pb2.Empty.FromString,
                     response_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
             ),
@@ -1455,6 +1472,23 @@ class Host(object):
             timeout=None,
             metadata=None):
         return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/ResetSimulation',
+            google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
+            google_dot_protobuf_dot_empty__pb2.Empty.FromString,
+            options, channel_credentials,
+            insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
+
+    @staticmethod
+    def TurnUpsideDown(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/TurnUpsideDown',
             google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
             google_dot_protobuf_dot_empty__pb2.Empty.FromString,
             options, channel_credentials,
