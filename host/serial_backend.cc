@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <mutex>
 #include <span>
 #include <utility>
@@ -337,6 +338,7 @@ class SerialBackend::Impl {
         }
       }
     }
+    ReportIgnoredSettings(fd, t);
     if (options_.flow_control != FlowControl::kNone) {
       termios flow{};
       if (::tcgetattr(fd, &flow) == 0) {
@@ -360,6 +362,30 @@ class SerialBackend::Impl {
     if (::tcflush(fd, TCIFLUSH) != 0) {
       Log().debug("serial {}: tcflush refused ({})", path, std::strerror(errno));
     }
+  }
+
+  // tcsetattr succeeds when any change was taken: read the settings back and
+  // say which were not (a pty keeps CS8 without parity; debug there, since
+  // the bytes are the same; a warning on a real line).
+  void ReportIgnoredSettings(int fd, const termios& wanted) {
+    termios got{};
+    if (::tcgetattr(fd, &got) != 0) return;
+    std::string ignored;
+    auto note = [&](bool differs, std::string_view what) {
+      if (!differs) return;
+      if (!ignored.empty()) ignored += ", ";
+      ignored += what;
+    };
+    note((got.c_cflag & CSIZE) != (wanted.c_cflag & CSIZE), "data bits");
+    note((got.c_cflag & (PARENB | PARODD)) != (wanted.c_cflag & (PARENB | PARODD)), "parity");
+    note((got.c_cflag & CSTOPB) != (wanted.c_cflag & CSTOPB), "stop bits");
+    note(::cfgetospeed(&got) != ::cfgetospeed(&wanted), "baud rate");
+    if (ignored.empty()) return;
+    std::error_code ec;
+    const bool pty =
+        std::filesystem::weakly_canonical(options_.device, ec).string().starts_with("/dev/pts/");
+    Log().log(pty ? spdlog::level::debug : spdlog::level::warn,
+              "serial {}: the driver did not take the {} asked for", options_.device, ignored);
   }
 
   void OpenTcp() {
