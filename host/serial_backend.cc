@@ -22,6 +22,7 @@
 #include <boost/asio/posix/stream_descriptor.hpp>
 #include <boost/asio/write.hpp>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "proto/snp/decoder.h"
@@ -154,7 +155,7 @@ void ValidateSerialOptions(const SerialOptions& o) {
   }
   auto check_time = [](std::string_view name, double value) {
     if (!std::isfinite(value) || value <= 0.0 || value > 600.0) {
-      throw Error(StatusCode::kOutOfRange, std::string(name) + " " + std::to_string(value) +
+      throw Error(StatusCode::kOutOfRange, std::string(name) + " " + FormatDouble(value) +
                                                " s is outside (0, 600]");
     }
   };
@@ -409,7 +410,7 @@ class SerialBackend::Impl {
       Drain();        // and lets it finish before the socket is reused
       throw Error(StatusCode::kUnavailable,
                   "cannot connect to " + options_.device + ": no answer within " +
-                      std::to_string(options_.connect_timeout) + " s");
+                      FormatDouble(options_.connect_timeout) + " s");
     }
     if (state->second) {
       CloseStream();
@@ -577,7 +578,7 @@ class SerialBackend::Impl {
     RunUntil([&] { return state->done; }, Clock::now() + Millis(options_.write_timeout));
     if (!state->done) {
       Lost("write stalled: the peer did not read " + std::to_string(bytes.size()) +
-           " bytes within " + std::to_string(options_.write_timeout) + " s");
+           " bytes within " + FormatDouble(options_.write_timeout) + " s");
       // The aborted write completes at once; wait for it so `bytes` outlives it.
       while (!state->done) {
         io_.restart();
