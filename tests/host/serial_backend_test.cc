@@ -392,6 +392,9 @@ TEST_P(SerialBackendTest, FramesRoundTripBothWays) {
   EXPECT_EQ(sent[0], snp::MakeFrame(snp::Address::Host(), snp::Address::Bridge(),
                                     snp::GetSimInfo{}));
   EXPECT_EQ(sent[1], request);
+  // The hello's bytes as docs/snp.md ("The hello") shows them.
+  EXPECT_EQ(snp::EncodeFrame(sent[0]),
+            (std::vector<uint8_t>{0xA5, 0x00, 0x09, 0x00, 0x00, 0x4E, 0x71, 0x4B}));
 
   const SerialStats stats = backend.stats();
   EXPECT_EQ(stats.frames_out, 2u);  // hello + request
