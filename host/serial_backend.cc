@@ -429,13 +429,20 @@ class SerialBackend::Impl {
     }
     const std::vector<uint8_t> hello = snp::EncodeFrame(
         snp::MakeFrame(snp::Address::Host(), snp::Address::Bridge(), snp::GetSimInfo{}));
-    Write(hello);
+    // Armed before the write: the answer may be read while the write's
+    // completion is still being processed.
+    hello_pending_ = true;
+    hello_answered_ = false;
+    try {
+      Write(hello);
+    } catch (...) {
+      hello_pending_ = false;
+      throw;
+    }
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.frames_out;
     }
-    hello_pending_ = true;
-    hello_answered_ = false;
     RunUntil([this] { return hello_answered_ || !connected_; },
              Clock::now() + Millis(options_.hello_timeout));
     hello_pending_ = false;

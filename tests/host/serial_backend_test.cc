@@ -354,10 +354,13 @@ class SerialBackendTest : public ::testing::TestWithParam<Transport> {
       tcp_->Start();
     }
   }
-  SerialOptions Options() const {
+  // Options for the peer's device. A silent peer costs `hello_timeout` per
+  // open; where a test expects an answer, give a loaded machine time (the
+  // answer ends the wait at once).
+  SerialOptions Options(double hello_timeout = 0.2) const {
     SerialOptions options;
     options.device = Device();
-    options.hello_timeout = 0.2;
+    options.hello_timeout = hello_timeout;
     return options;
   }
 
@@ -408,7 +411,7 @@ TEST_P(SerialBackendTest, FramesRoundTripBothWays) {
 
 TEST_P(SerialBackendTest, HelloAnsweredWithSimInfoMeansABridge) {
   peer().set_bridge(true);
-  SerialBackend backend(Options());
+  SerialBackend backend(Options(/*hello_timeout=*/3.0));
   EXPECT_TRUE(backend.IsSimulation());
   ASSERT_TRUE(backend.sim_info().has_value());
   EXPECT_EQ(*backend.sim_info(), kSimInfo);
@@ -507,7 +510,7 @@ TEST_P(SerialBackendTest, ReceiveReturnsWithinItsTimeoutWhenNothingComes) {
 }
 
 TEST_P(SerialBackendTest, PeerClosingIsUnavailableAndTheNextSendReopens) {
-  SerialBackend backend(Options());
+  SerialBackend backend(Options(/*hello_timeout=*/1.0));
   ASSERT_FALSE(backend.IsSimulation());
   ASSERT_TRUE(peer().WaitForLink(2s));
   StopPeer();
