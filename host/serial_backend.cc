@@ -185,7 +185,7 @@ class SerialBackend::Impl {
     std::vector<uint8_t> bytes = snp::EncodeFrame(frame);  // INVALID_ARGUMENT if bad
     Poll();  // notice a peer that went away since the last call
     if (!connected_) {
-      Log().info("{} {}: link lost ({}); reopening", Name(), options_.device, lost_reason_);
+      Log().info("{}: link lost ({}); reopening", Who(), lost_reason_);
       Open();
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.reconnects;
@@ -233,6 +233,8 @@ class SerialBackend::Impl {
     return stats_;
   }
   std::string Name() const { return tcp_ ? "tcp" : "serial"; }
+  // "serial /dev/ttyUSB0" or "tcp://host:port", for logs.
+  std::string Who() const { return tcp_ ? options_.device : "serial " + options_.device; }
   const std::string& device() const { return options_.device; }
 
  private:
@@ -449,11 +451,11 @@ class SerialBackend::Impl {
     if (!connected_) ThrowLost();
     const std::optional<snp::SimInfo> info = sim_info();
     if (info) {
-      Log().info("{} {}: yamor-bridge answered the hello (time step {} s): a simulation", Name(),
-                 options_.device, info->time_step);
+      Log().info("{}: yamor-bridge answered the hello (time step {} s): a simulation", Who(),
+                 info->time_step);
     } else {
-      Log().info("{} {}: no answer to the hello within {} s: a real robot", Name(),
-                 options_.device, options_.hello_timeout);
+      Log().info("{}: no answer to the hello within {} s: a real robot", Who(),
+                 options_.hello_timeout);
     }
   }
 
@@ -523,14 +525,15 @@ class SerialBackend::Impl {
         if (inbox_.size() >= options_.max_inbox_frames) {
           inbox_.pop_front();
           ++stats_.dropped_frames;
-          Log().warn("{} {}: inbox full ({} frames); dropped the oldest", Name(), options_.device,
+          Log().warn("{}: inbox full ({} frames); dropped the oldest", Who(),
                      options_.max_inbox_frames);
         }
         inbox_.push_back(std::move(decoded->frame));
       } else {
+        if (!Log().should_log(spdlog::level::trace)) continue;  // garbage can be megabytes
         const auto& error = std::get<snp::DecodeError>(event);
-        Log().trace("{} {}: skipped a frame candidate at byte {}: {}", Name(), options_.device,
-                    error.offset(), error.reason());
+        Log().trace("{}: skipped a frame candidate at byte {}: {}", Who(), error.offset(),
+                    error.reason());
       }
     }
   }
@@ -544,7 +547,7 @@ class SerialBackend::Impl {
         hello_answered_ = true;
         return true;
       } catch (const Error& e) {
-        Log().warn("{} {}: malformed SimInfo ignored: {}", Name(), options_.device, e.what());
+        Log().warn("{}: malformed SimInfo ignored: {}", Who(), e.what());
         return false;
       }
     }
@@ -552,8 +555,7 @@ class SerialBackend::Impl {
       try {
         const auto error = std::get<snp::SpecialError>(snp::DecodeMessage(frame));
         if (error.acked != snp::MessageType::kGetSimInfo) return false;
-        Log().info("{} {}: the peer refused the hello ({}): not a simulation", Name(),
-                   options_.device, error.text);
+        Log().info("{}: the peer refused the hello ({}): not a simulation", Who(), error.text);
         hello_answered_ = true;
         return true;
       } catch (const Error&) {
@@ -608,7 +610,7 @@ class SerialBackend::Impl {
   void Lost(const std::string& reason) {
     if (!connected_) return;
     lost_reason_ = reason;
-    Log().warn("{} {}: link lost: {}", Name(), options_.device, reason);
+    Log().warn("{}: link lost: {}", Who(), reason);
     CloseStream();
   }
 

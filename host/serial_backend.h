@@ -19,9 +19,17 @@
 namespace yamor::host {
 
 /// Parity bit of a serial line.
-enum class Parity { kNone, kOdd, kEven };
+enum class Parity {
+  kNone,  ///< No parity bit.
+  kOdd,   ///< Odd parity.
+  kEven,  ///< Even parity.
+};
 /// Flow control of a serial line.
-enum class FlowControl { kNone, kSoftware, kHardware };
+enum class FlowControl {
+  kNone,      ///< None.
+  kSoftware,  ///< XON/XOFF.
+  kHardware,  ///< RTS/CTS.
+};
 
 /// "none" / "odd" / "even" -> Parity; INVALID_ARGUMENT naming the text otherwise.
 Parity ParseParity(std::string_view text);

@@ -71,6 +71,9 @@ class PeerCore {
 
   // Plays yamor-bridge (answers the hello) or a real robot.
   void set_bridge(bool bridge) { bridge_ = bridge; }
+  // Answers bridge specials with SpecialError UNIMPLEMENTED (a host-side
+  // stand-in that knows it is no simulation).
+  void set_refuse_specials(bool refuse) { refuse_specials_ = refuse; }
   // When false, the peer stops reading (its side's buffers fill up).
   void set_reading(bool reading) { reading_ = reading; }
 
@@ -171,7 +174,12 @@ class PeerCore {
       received_.push_back(frame);
     }
     if (frame.destination.kind == snp::NodeKind::kBridge) {
-      if (bridge_ && frame.type == snp::MessageType::kGetSimInfo) {
+      if (refuse_specials_) {
+        WriteFrame(snp::MakeFrame(snp::Address::Bridge(), snp::Address::Host(),
+                                  snp::SpecialError{.acked = frame.type,
+                                                    .code = StatusCode::kUnimplemented,
+                                                    .text = "manual assembly required"}));
+      } else if (bridge_ && frame.type == snp::MessageType::kGetSimInfo) {
         WriteFrame(snp::MakeFrame(snp::Address::Bridge(), snp::Address::Host(), kSimInfo));
       }
       return;
@@ -189,6 +197,7 @@ class PeerCore {
   }
 
   std::atomic<bool> bridge_{false};
+  std::atomic<bool> refuse_specials_{false};
   std::atomic<bool> reading_{true};
   std::atomic<bool> stop_{false};
   std::atomic<int> link_fd_{-1};  // where Write goes: the pty master or the connection
@@ -431,6 +440,15 @@ TEST_P(SerialBackendTest, SilenceAfterTheHelloMeansARealRobot) {
   EXPECT_LT(elapsed, 1.5);
   ASSERT_TRUE(peer().WaitForFrames(1, 1s));
   EXPECT_EQ(peer().Hellos(), 1);
+}
+
+TEST_P(SerialBackendTest, HelloRefusedWithSpecialErrorMeansNoSimulationWithoutWaiting) {
+  peer().set_refuse_specials(true);
+  const Clock::time_point start = Clock::now();
+  SerialBackend backend(Options(/*hello_timeout=*/5.0));
+  EXPECT_LT(SecondsSince(start), 4.0) << "the refusal ends the wait";
+  EXPECT_FALSE(backend.IsSimulation());
+  EXPECT_FALSE(backend.Receive(50ms).has_value()) << "the refusal was the hello's answer";
 }
 
 TEST_P(SerialBackendTest, GarbageBeforeAndBetweenFramesIsSkippedAndCountedExactly) {
