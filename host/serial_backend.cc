@@ -174,7 +174,8 @@ void ValidateSerialOptions(const SerialOptions& o) {
 // which run inside those calls on the same thread).
 class SerialBackend::Impl {
  public:
-  explicit Impl(SerialOptions options) : options_(std::move(options)), tcp_(IsTcp(options_.device)) {
+  explicit Impl(SerialOptions options)
+      : options_(std::move(options)), tcp_(IsTcp(options_.device)) {
     ValidateSerialOptions(options_);
     Open();
   }
@@ -196,7 +197,8 @@ class SerialBackend::Impl {
   }
 
   std::optional<snp::Frame> Receive(std::chrono::milliseconds timeout) {
-    const Clock::time_point deadline = Clock::now() + std::max(timeout, std::chrono::milliseconds(0));
+    const Clock::time_point deadline =
+        Clock::now() + std::max(timeout, std::chrono::milliseconds(0));
     RunUntil([this] { return !inbox_.empty() || !connected_; }, deadline);
     if (!inbox_.empty()) {
       snp::Frame frame = std::move(inbox_.front());

@@ -207,7 +207,8 @@ std::string SettingsToToml(const Settings& s) {
   out << "# yamord settings (effective values)\n";
   out << "listen = " << Quote(s.listen) << "\n";
   out << "backend = " << Quote(s.backend) << "  # sim or serial\n";
-  out << "device = " << Quote(s.device) << "  # serial: /dev/ttyUSB0, /dev/rfcomm0, tcp://HOST:PORT\n";
+  out << "device = " << Quote(s.device)
+      << "  # serial: /dev/ttyUSB0, /dev/rfcomm0, tcp://HOST:PORT\n";
   out << "baud = " << s.baud << "\n";
   out << "data_bits = " << s.data_bits << "\n";
   out << "parity = " << Quote(s.parity) << "  # none, odd, even\n";

@@ -15,14 +15,14 @@ namespace yamor::host {
 /// Every daemon setting, with its default. Plain value.
 struct Settings {
   std::string listen = "127.0.0.1:2224";  ///< gRPC address ADDR:PORT (port 0 = ephemeral).
-  std::string backend = "sim";            ///< "sim" (in-process simulation) or "serial" (`device`).
-  std::string device;        ///< Serial backend: device path or tcp://HOST:PORT (yamor-bridge --tcp).
+  std::string backend = "sim";  ///< "sim" (in-process simulation) or "serial" (`device`).
+  std::string device;           ///< Serial backend: device path or tcp://HOST:PORT.
   int baud = 115200;         ///< Serial line rate [bit/s].
   int data_bits = 8;         ///< Serial data bits, 5..8.
   std::string parity = "none";        ///< Serial parity: none, odd, even.
   int stop_bits = 1;                  ///< Serial stop bits, 1 or 2.
   std::string flow_control = "none";  ///< Serial flow control: none, software, hardware.
-  double hello_timeout = 0.3;  ///< Wait for the bridge's answer to the hello [s]; silence = real robot.
+  double hello_timeout = 0.3;  ///< Wait for the hello's answer [s]; silence = a real robot.
   double reply_timeout = 1.0;  ///< Wait for a module's or the bridge's reply on a serial link [s].
   std::string world;         ///< Built-in world name or morphology file; "" = quadruped.
   std::string config;        ///< Robot configuration file; "" = the world's built-in one.

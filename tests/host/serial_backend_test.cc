@@ -8,6 +8,7 @@
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <poll.h>
 #include <stdlib.h>
 #include <sys/socket.h>
@@ -303,6 +304,10 @@ class TcpPeer : public PeerCore {
     pollfd p{.fd = listener, .events = POLLIN, .revents = 0};
     if (::poll(&p, 1, 20) <= 0) return -1;
     connection_ = ::accept4(listener, nullptr, nullptr, SOCK_CLOEXEC);
+    if (connection_ >= 0) {
+      const int one = 1;  // as yamor-bridge: small frames go at once
+      ::setsockopt(connection_, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+    }
     return connection_;
   }
 
@@ -416,6 +421,30 @@ TEST_P(SerialBackendTest, FramesRoundTripBothWays) {
   EXPECT_EQ(stats.skipped_bytes, 0u);
   EXPECT_EQ(stats.decode_errors, 0u);
   EXPECT_EQ(stats.reconnects, 0u);
+}
+
+TEST_P(SerialBackendTest, ManyRequestsInARowEachGetTheirAnswerInOrder) {
+  SerialBackend backend(Options());
+  constexpr int kRequests = 500;
+  // Bursts of 10 requests, then their 10 answers: the answers queue up in the
+  // OS buffers and the inbox meanwhile.
+  for (int burst = 0; burst < kRequests / 10; ++burst) {
+    for (int i = 0; i < 10; ++i) {
+      const auto id = static_cast<uint8_t>((burst * 10 + i) % 255);
+      backend.Send(ToModule(id, snp::SetLimits{.min_angle = -0.5f, .max_angle = 0.5f}));
+    }
+    for (int i = 0; i < 10; ++i) {
+      const auto id = static_cast<uint8_t>((burst * 10 + i) % 255);
+      const std::optional<snp::Frame> reply = backend.Receive(5s);
+      ASSERT_TRUE(reply.has_value()) << "request " << burst * 10 + i;
+      EXPECT_EQ(*reply, FromModule(id, snp::Ack{.acked = snp::MessageType::kSetLimits,
+                                                .status = StatusCode::kOk}));
+    }
+  }
+  const SerialStats stats = backend.stats();
+  EXPECT_EQ(stats.frames_out, kRequests + 1u);
+  EXPECT_EQ(stats.frames_in, static_cast<uint64_t>(kRequests));
+  EXPECT_EQ(stats.skipped_bytes, 0u);
 }
 
 TEST_P(SerialBackendTest, HelloAnsweredWithSimInfoMeansABridge) {
