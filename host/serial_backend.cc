@@ -191,6 +191,16 @@ class SerialBackend::Impl {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.reconnects;
     }
+    if (frame.destination.kind == snp::NodeKind::kBridge && !IsSimulation()) {
+      // docs/snp.md: a backend without a simulation answers bridge commands
+      // itself; a real robot would drop them and the caller would time out.
+      inbox_.push_back(snp::MakeFrame(
+          snp::Address::Bridge(), snp::Address::Host(),
+          snp::SpecialError{.acked = frame.type,
+                            .code = StatusCode::kUnimplemented,
+                            .text = "manual assembly required: a real robot, no simulation"}));
+      return;
+    }
     Write(bytes);
     std::lock_guard<std::mutex> lock(mutex_);
     ++stats_.frames_out;

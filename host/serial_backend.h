@@ -90,7 +90,10 @@ struct SerialStats {
 /// throw yamor::Error(UNAVAILABLE) naming the device and the OS error (frames
 /// that arrived before the loss are still handed out first); the next Send
 /// tries to reopen the link once, hello included, and throws UNAVAILABLE if
-/// that fails. No call blocks past its timeout.
+/// that fails. No call blocks past its timeout. On a real robot (the hello
+/// was not answered) bridge commands are not written: the backend answers
+/// them itself with SpecialError UNIMPLEMENTED ("manual assembly required"),
+/// as docs/snp.md prescribes.
 ///
 /// Thread-safety: there is no background thread. The Asio io_context runs
 /// on the calling thread inside Send, Receive and the constructor (reads
@@ -112,6 +115,7 @@ class SerialBackend final : public Backend {
 
   /// Writes one frame; reopens a lost link first (once). Throws UNAVAILABLE
   /// when the link is gone or the frame could not leave within write_timeout.
+  /// A bridge command to a real robot is answered locally (SpecialError).
   void Send(const snp::Frame& frame) override;
   /// The next frame, waiting up to `timeout`; nullopt when none came.
   /// Throws UNAVAILABLE once the link is lost and no frame is left.

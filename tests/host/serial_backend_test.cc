@@ -447,6 +447,28 @@ TEST_P(SerialBackendTest, ManyRequestsInARowEachGetTheirAnswerInOrder) {
   EXPECT_EQ(stats.skipped_bytes, 0u);
 }
 
+TEST_P(SerialBackendTest, BridgeCommandsToARealRobotAreRefusedLocally) {
+  SerialBackend backend(Options());
+  ASSERT_FALSE(backend.IsSimulation());
+  backend.Send(snp::MakeFrame(snp::Address::Host(), snp::Address::Bridge(),
+                              snp::Step{.duration = 0.01}));
+  const std::optional<snp::Frame> reply = backend.Receive(1s);
+  ASSERT_TRUE(reply.has_value());
+  const auto error = std::get<snp::SpecialError>(snp::DecodeMessage(*reply));
+  EXPECT_EQ(error.acked, snp::MessageType::kStep);
+  EXPECT_EQ(error.code, StatusCode::kUnimplemented);
+  EXPECT_THAT(error.text, HasSubstr("manual assembly required"));
+  // Module messages still go out; the Step never did.
+  backend.Send(ToModule(2, snp::ReadServoAngle{}));
+  ASSERT_TRUE(backend.Receive(2s).has_value());
+  ASSERT_TRUE(peer().WaitForFrames(2, 1s));
+  const std::vector<snp::Frame> sent = peer().Received();
+  ASSERT_EQ(sent.size(), 2u);
+  EXPECT_EQ(sent[0].type, snp::MessageType::kGetSimInfo);
+  EXPECT_EQ(sent[1].type, snp::MessageType::kReadServoAngle);
+  EXPECT_EQ(backend.stats().frames_out, 2u);
+}
+
 TEST_P(SerialBackendTest, HelloAnsweredWithSimInfoMeansABridge) {
   peer().set_bridge(true);
   SerialBackend backend(Options(/*hello_timeout=*/3.0));
