@@ -161,8 +161,11 @@ void ValidateSettings(const Settings& s) {
                 "tcp://HOST:PORT)");
   }
   // The serial values are checked whatever the backend, so a typo in a file
-  // shows at once and not when someone switches to the serial backend.
-  ValidateSerialOptions(SerialOptionsOf(s));
+  // shows at once and not when someone switches to the serial backend (a
+  // placeholder stands in for the sim backend's unused, empty device).
+  SerialOptions serial = SerialOptionsOf(s);
+  if (serial.device.empty()) serial.device = "(none)";
+  ValidateSerialOptions(serial);
   if (!(s.reply_timeout > 0.0 && s.reply_timeout <= 120.0)) {
     throw Error(StatusCode::kOutOfRange, "reply_timeout " + FormatDouble(s.reply_timeout) +
                                              " s is outside (0, 120]");
@@ -191,8 +194,7 @@ void ValidateSettings(const Settings& s) {
 
 SerialOptions SerialOptionsOf(const Settings& s) {
   SerialOptions options;
-  // An unused device for the sim backend only lets ValidateSerialOptions check the rest.
-  options.device = s.device.empty() ? "(none)" : s.device;
+  options.device = s.device;
   options.baud = s.baud;
   options.data_bits = s.data_bits;
   options.parity = ParseParity(s.parity);
