@@ -244,6 +244,10 @@ class SerialBackend::Impl {
     std::lock_guard<std::mutex> lock(mutex_);
     return stats_;
   }
+  uint64_t Generation() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return 1 + stats_.reconnects;
+  }
   std::string Name() const { return tcp_ ? "tcp" : "serial"; }
   // "serial /dev/ttyUSB0" or "tcp://host:port", for logs.
   std::string Who() const { return tcp_ ? options_.device : "serial " + options_.device; }
@@ -695,6 +699,8 @@ std::optional<snp::Frame> SerialBackend::Receive(std::chrono::milliseconds timeo
 bool SerialBackend::IsSimulation() const { return impl_->IsSimulation(); }
 
 std::string SerialBackend::Name() const { return impl_->Name(); }
+
+uint64_t SerialBackend::Generation() const { return impl_->Generation(); }
 
 void SerialBackend::Reopen() { impl_->Reopen(); }
 

@@ -124,6 +124,8 @@ class SerialBackend final : public Backend {
   bool IsSimulation() const override;
   /// "serial" for a device, "tcp" for tcp://.
   std::string Name() const override;
+  /// 1 + the successful reopens: counts up each time the link came back.
+  uint64_t Generation() const override;
 
   /// Closes the link (if open) and opens it again with a new hello; throws
   /// UNAVAILABLE on failure (the link then stays lost).

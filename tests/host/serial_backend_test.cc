@@ -581,6 +581,7 @@ TEST_P(SerialBackendTest, ReceiveReturnsWithinItsTimeoutWhenNothingComes) {
 TEST_P(SerialBackendTest, PeerClosingIsUnavailableAndTheNextSendReopens) {
   SerialBackend backend(Options(/*hello_timeout=*/1.0));
   ASSERT_FALSE(backend.IsSimulation());
+  EXPECT_EQ(backend.Generation(), 1u);
   ASSERT_TRUE(peer().WaitForLink(2s));
   StopPeer();
 
@@ -607,6 +608,7 @@ TEST_P(SerialBackendTest, PeerClosingIsUnavailableAndTheNextSendReopens) {
   EXPECT_EQ(*reply, FromModule(4, snp::ServoAngle{.angle = 0.25f}));
   EXPECT_EQ(peer().Hellos(), 2);  // the first link's and the reopened one's
   EXPECT_EQ(backend.stats().reconnects, 1u);
+  EXPECT_EQ(backend.Generation(), 2u) << "the driver relinks a reopened robot";
 }
 
 INSTANTIATE_TEST_SUITE_P(Transports, SerialBackendTest,

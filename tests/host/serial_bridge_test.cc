@@ -2,11 +2,14 @@
 // emulated quadruped) behind a BridgeTransport on a pty it creates, or on
 // loopback TCP, served on a thread; the host side is SerialBackend + SnpLink,
 // exactly what yamord --backend serial uses.
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
 #include <memory>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -33,14 +36,18 @@ physics::Morphology Quadruped() {
 class BridgeOnThread {
  public:
   explicit BridgeOnThread(TransportOptions::Kind kind)
+      : BridgeOnThread(TransportOptions{.kind = kind, .tcp_port = 0}) {}
+  explicit BridgeOnThread(TransportOptions options)
       : server_(Quadruped()),
-        transport_(server_, TransportOptions{.kind = kind, .tcp_port = 0}),
+        transport_(server_, std::move(options)),
         thread_([this] { transport_.Run(/*stop_on_signals=*/false); }) {}
   ~BridgeOnThread() {
     transport_.Stop();
     thread_.join();
   }
 
+  // The TCP port (0 for a pty).
+  uint16_t Port() const { return transport_.Port(); }
   // The device for SerialBackend: the pty slave or tcp://127.0.0.1:PORT.
   std::string Device() const {
     return transport_.Port() != 0 ? "tcp://127.0.0.1:" + std::to_string(transport_.Port())
@@ -123,6 +130,48 @@ TEST_P(SerialBridgeTest, AKilledBridgeIsUnavailableNamingTheDevice) {
   EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 4.0)
       << "the loss was not noticed before the reply timeout";
   EXPECT_FALSE(backend.IsOpen());
+}
+
+TEST_P(SerialBridgeTest, ARestartedBridgeIsReopenedAndTheLinkSaysSo) {
+  // The same device before and after: a pty symlink, or the same TCP port.
+  const std::string link = ::testing::TempDir() + "/yamor_serial_bridge_" +
+                           std::to_string(::getpid());
+  TransportOptions transport{.kind = GetParam(), .tcp_port = 0};
+  if (GetParam() == TransportOptions::Kind::kPty) transport.link = link;
+  auto bridge = std::make_unique<BridgeOnThread>(transport);
+  transport.tcp_port = bridge->Port();
+  SerialOptions options;
+  options.device = GetParam() == TransportOptions::Kind::kPty ? link : bridge->Device();
+  options.hello_timeout = 2.0;
+  SerialBackend backend(options);
+  SnpLink snp_link(backend, IdMap(), SnpLinkOptions{.reply_timeout = 5.0});
+  int reopened = 0;
+  snp_link.SetReopenedHandler([&] { ++reopened; });
+  snp_link.BridgeRequest(snp::Step{.duration = 0.01}, snp::MessageType::kStepDone);
+
+  bridge.reset();
+  try {
+    snp_link.BridgeRequest(snp::GetSimTime{}, snp::MessageType::kSimTime);
+    ADD_FAILURE() << "a killed bridge answered";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kUnavailable) << e.what();
+  }
+  bridge = std::make_unique<BridgeOnThread>(transport);  // a fresh world at t = 0
+  try {
+    snp_link.BridgeRequest(snp::GetSimTime{}, snp::MessageType::kSimTime);
+    ADD_FAILURE() << "the call on the reopened link did not say so";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kUnavailable);
+    EXPECT_THAT(e.what(), HasSubstr("reopened"));
+  }
+  EXPECT_EQ(reopened, 1);
+  EXPECT_EQ(backend.Generation(), 2u);
+  EXPECT_TRUE(backend.IsSimulation());
+  // The next call goes through, to the new world.
+  EXPECT_EQ(std::get<snp::SimTime>(
+                snp_link.BridgeRequest(snp::GetSimTime{}, snp::MessageType::kSimTime))
+                .seconds,
+            0.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Transports, SerialBridgeTest,
