@@ -1,7 +1,8 @@
 // The byte/frame transport between the robot driver and one robot: the
-// in-process simulation (SimBackend), a serial link to real hardware (a later
-// issue), or a scripted fake in tests. Every backend carries SNP frames, so
-// the same bytes drive the simulation and the real robot (DESIGN.md).
+// in-process simulation (SimBackend), a serial line or TCP connection to a
+// real robot or yamor-bridge (SerialBackend), or a scripted fake in tests.
+// Every backend carries SNP frames, so the same bytes drive the simulation
+// and the real robot (DESIGN.md).
 #pragma once
 
 #include <chrono>

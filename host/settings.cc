@@ -8,6 +8,7 @@
 
 #include <toml++/toml.h>
 
+#include "common/format.h"
 #include "common/status.h"
 #include "host/id_map.h"
 
@@ -69,6 +70,22 @@ Settings ParseSettingsToml(std::string_view text, std::string_view source) {
       s.listen = GetString(source, node, key);
     } else if (key == "backend") {
       s.backend = GetString(source, node, key);
+    } else if (key == "device") {
+      s.device = GetString(source, node, key);
+    } else if (key == "baud") {
+      s.baud = static_cast<int>(GetInteger(source, node, key, 1, 100000000));
+    } else if (key == "data_bits") {
+      s.data_bits = static_cast<int>(GetInteger(source, node, key, 0, 64));
+    } else if (key == "parity") {
+      s.parity = GetString(source, node, key);
+    } else if (key == "stop_bits") {
+      s.stop_bits = static_cast<int>(GetInteger(source, node, key, 0, 64));
+    } else if (key == "flow_control") {
+      s.flow_control = GetString(source, node, key);
+    } else if (key == "hello_timeout") {
+      s.hello_timeout = GetNumber(source, node, key);
+    } else if (key == "reply_timeout") {
+      s.reply_timeout = GetNumber(source, node, key);
     } else if (key == "world") {
       s.world = GetString(source, node, key);
     } else if (key == "config") {
@@ -134,9 +151,24 @@ void ValidateSettings(const Settings& s) {
   if (colon == std::string::npos || colon == 0 || colon + 1 == s.listen.size()) {
     throw Error(StatusCode::kInvalidArgument, "listen address '" + s.listen + "' is not ADDR:PORT");
   }
-  if (s.backend != "sim") {
+  if (s.backend != "sim" && s.backend != "serial") {
     throw Error(StatusCode::kInvalidArgument,
-                "backend '" + s.backend + "' is not available (only 'sim'; serial comes later)");
+                "backend '" + s.backend + "' is not 'sim' or 'serial'");
+  }
+  if (s.backend == "serial" && s.device.empty()) {
+    throw Error(StatusCode::kInvalidArgument,
+                "backend 'serial' needs a device (a path such as /dev/ttyUSB0, or "
+                "tcp://HOST:PORT)");
+  }
+  // The serial values are checked whatever the backend, so a typo in a file
+  // shows at once and not when someone switches to the serial backend (a
+  // placeholder stands in for the sim backend's unused, empty device).
+  SerialOptions serial = SerialOptionsOf(s);
+  if (serial.device.empty()) serial.device = "(none)";
+  ValidateSerialOptions(serial);
+  if (!(s.reply_timeout > 0.0 && s.reply_timeout <= 120.0)) {
+    throw Error(StatusCode::kOutOfRange, "reply_timeout " + FormatDouble(s.reply_timeout) +
+                                             " s is outside (0, 120]");
   }
   ParseIdMap(s.id_map);
   if (s.master && (*s.master < 0 || *s.master > 254)) {
@@ -160,11 +192,32 @@ void ValidateSettings(const Settings& s) {
   }
 }
 
+SerialOptions SerialOptionsOf(const Settings& s) {
+  SerialOptions options;
+  options.device = s.device;
+  options.baud = s.baud;
+  options.data_bits = s.data_bits;
+  options.parity = ParseParity(s.parity);
+  options.stop_bits = s.stop_bits;
+  options.flow_control = ParseFlowControl(s.flow_control);
+  options.hello_timeout = s.hello_timeout;
+  return options;
+}
+
 std::string SettingsToToml(const Settings& s) {
   std::ostringstream out;
   out << "# yamord settings (effective values)\n";
   out << "listen = " << Quote(s.listen) << "\n";
-  out << "backend = " << Quote(s.backend) << "\n";
+  out << "backend = " << Quote(s.backend) << "  # sim or serial\n";
+  out << "device = " << Quote(s.device)
+      << "  # serial: /dev/ttyUSB0, /dev/rfcomm0, tcp://HOST:PORT\n";
+  out << "baud = " << s.baud << "\n";
+  out << "data_bits = " << s.data_bits << "\n";
+  out << "parity = " << Quote(s.parity) << "  # none, odd, even\n";
+  out << "stop_bits = " << s.stop_bits << "\n";
+  out << "flow_control = " << Quote(s.flow_control) << "  # none, software, hardware\n";
+  out << "hello_timeout = " << toml::value<double>(s.hello_timeout) << "\n";
+  out << "reply_timeout = " << toml::value<double>(s.reply_timeout) << "\n";
   out << "world = " << Quote(s.world) << "  # \"\" = quadruped\n";
   out << "config = " << Quote(s.config) << "  # \"\" = the world's built-in configuration\n";
   out << "workers = " << s.workers << "  # 0 = core count\n";

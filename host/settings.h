@@ -8,12 +8,22 @@
 #include <string>
 #include <string_view>
 
+#include "host/serial_backend.h"
+
 namespace yamor::host {
 
 /// Every daemon setting, with its default. Plain value.
 struct Settings {
   std::string listen = "127.0.0.1:2224";  ///< gRPC address ADDR:PORT (port 0 = ephemeral).
-  std::string backend = "sim";            ///< "sim" (the serial backend is a later issue).
+  std::string backend = "sim";  ///< "sim" (in-process simulation) or "serial" (`device`).
+  std::string device;           ///< Serial backend: device path or tcp://HOST:PORT.
+  int baud = 115200;         ///< Serial line rate [bit/s].
+  int data_bits = 8;         ///< Serial data bits, 5..8.
+  std::string parity = "none";        ///< Serial parity: none, odd, even.
+  int stop_bits = 1;                  ///< Serial stop bits, 1 or 2.
+  std::string flow_control = "none";  ///< Serial flow control: none, software, hardware.
+  double hello_timeout = 0.3;  ///< Wait for the hello's answer [s]; silence = a real robot.
+  double reply_timeout = 1.0;  ///< Wait for a module's or the bridge's reply on a serial link [s].
   std::string world;         ///< Built-in world name or morphology file; "" = quadruped.
   std::string config;        ///< Robot configuration file; "" = the world's built-in one.
   unsigned workers = 0;      ///< Evaluate worker threads; 0 = the core count.
@@ -41,7 +51,12 @@ Settings LoadSettingsFile(const std::string& path);
 std::string SettingsToToml(const Settings& settings);
 
 /// Checks values that do not depend on the file format (ranges, id map
-/// syntax, listen address shape); throws INVALID_ARGUMENT / OUT_OF_RANGE.
+/// syntax, listen address shape, serial line values even when the backend is
+/// "sim"); throws INVALID_ARGUMENT / OUT_OF_RANGE naming the key and value.
 void ValidateSettings(const Settings& settings);
+
+/// The SerialBackend options of validated `settings` (device and line values,
+/// hello timeout).
+SerialOptions SerialOptionsOf(const Settings& settings);
 
 }  // namespace yamor::host

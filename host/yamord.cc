@@ -5,6 +5,8 @@
 //   yamord                                  # quadruped on 127.0.0.1:2224
 //   yamord --listen 127.0.0.1:0 --world snake
 //   yamord --settings /etc/yamor/yamord.toml --print-config
+//   yamord --backend serial --device /dev/rfcomm0          # a real robot
+//   yamord --backend serial --device tcp://simhost:2223    # yamor-bridge --tcp
 //
 // SIGTERM / SIGINT: stop accepting calls, cancel long Sleeps and Evaluates,
 // drain in-flight calls (up to --drain-seconds), exit 0.
@@ -25,6 +27,7 @@
 #include "host/driver.h"
 #include "host/evaluator.h"
 #include "host/id_map.h"
+#include "host/serial_backend.h"
 #include "host/service.h"
 #include "host/settings.h"
 #include "host/worlds.h"
@@ -43,7 +46,28 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   double drain_seconds = 5.0;
   app.add_option("--settings", settings_file, "TOML settings file (flags override it)");
   auto* listen = app.add_option("--listen", flags.listen, "gRPC address ADDR:PORT (port 0: pick one)");
-  auto* backend = app.add_option("--backend", flags.backend, "Robot backend: sim");
+  app.footer(
+      "Serial backend: --backend serial --device PATH|tcp://HOST:PORT attaches a real robot's\n"
+      "master node (serial port, /dev/rfcomm0) or yamor-bridge (its pty, or --tcp) instead of\n"
+      "opening a world. A device that cannot be opened at start is an error: yamord prints\n"
+      "why and exits with status 2. A link lost later makes robot calls fail with\n"
+      "UNAVAILABLE; the next call reopens it.");
+  auto* backend = app.add_option("--backend", flags.backend,
+                                 "Robot backend: sim (in-process simulation) or serial (--device)");
+  auto* device = app.add_option("--device", flags.device,
+                                "Serial backend: device path (/dev/ttyUSB0, /dev/rfcomm0, "
+                                "/dev/pts/N) or tcp://HOST:PORT");
+  auto* baud = app.add_option("--baud", flags.baud, "Serial line rate [bit/s] (default 115200)");
+  auto* data_bits = app.add_option("--data-bits", flags.data_bits, "Serial data bits, 5..8");
+  auto* parity = app.add_option("--parity", flags.parity, "Serial parity: none, odd, even");
+  auto* stop_bits = app.add_option("--stop-bits", flags.stop_bits, "Serial stop bits, 1 or 2");
+  auto* flow = app.add_option("--flow-control", flags.flow_control,
+                              "Serial flow control: none, software, hardware");
+  auto* hello_timeout = app.add_option("--hello-timeout", flags.hello_timeout,
+                                       "Wait for yamor-bridge's answer to the hello [s]; "
+                                       "silence means a real robot");
+  auto* reply_timeout = app.add_option("--reply-timeout", flags.reply_timeout,
+                                       "Wait for a reply on a serial link [s]");
   auto* world = app.add_option("--world", flags.world,
                                "Built-in world name or morphology file (default quadruped)");
   auto* config = app.add_option("--config", flags.config,
@@ -73,6 +97,14 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   Settings settings = settings_file.empty() ? Settings() : LoadSettingsFile(settings_file);
   if (listen->count()) settings.listen = flags.listen;
   if (backend->count()) settings.backend = flags.backend;
+  if (device->count()) settings.device = flags.device;
+  if (baud->count()) settings.baud = flags.baud;
+  if (data_bits->count()) settings.data_bits = flags.data_bits;
+  if (parity->count()) settings.parity = flags.parity;
+  if (stop_bits->count()) settings.stop_bits = flags.stop_bits;
+  if (flow->count()) settings.flow_control = flags.flow_control;
+  if (hello_timeout->count()) settings.hello_timeout = flags.hello_timeout;
+  if (reply_timeout->count()) settings.reply_timeout = flags.reply_timeout;
   if (world->count()) settings.world = flags.world;
   if (config->count()) settings.config = flags.config;
   if (workers->count()) settings.workers = flags.workers;
@@ -102,13 +134,24 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   }
   DriverOptions driver_options{.id_map = ParseIdMap(settings.id_map),
                                .master = settings.master,
-                               .link_timeout = settings.link_timeout};
+                               .link_timeout = settings.link_timeout,
+                               .reply_timeout = settings.reply_timeout};
   RobotDriver driver(driver_options, *robot_config);
+  // The world stays the default of the stateless Evaluate workers either way.
   auto default_morphology = std::make_shared<const physics::Morphology>(resolved.morphology);
-  driver.OpenSimulation(SimulationSpec{.morphology = std::move(resolved.morphology),
-                                       .world_name = resolved.name,
-                                       .config = std::nullopt,
-                                       .seed = settings.seed});
+  std::string serving = resolved.name;
+  if (settings.backend == "serial") {
+    // Throws UNAVAILABLE naming the device when it cannot be opened: exit 2.
+    auto serial = std::make_unique<SerialBackend>(SerialOptionsOf(settings));
+    serving = serial->Name() + " " + settings.device +
+              (serial->IsSimulation() ? " (yamor-bridge)" : " (real robot)");
+    driver.AttachBackend(std::move(serial), settings.device);
+  } else {
+    driver.OpenSimulation(SimulationSpec{.morphology = std::move(resolved.morphology),
+                                         .world_name = resolved.name,
+                                         .config = std::nullopt,
+                                         .seed = settings.seed});
+  }
   if (!settings.led_tracker.empty()) {
     Log().info("LED tracker {} noted (tracking is not implemented yet)", settings.led_tracker);
   }
@@ -122,8 +165,8 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   HostServer server(driver, pool, server_options);
   const std::string host = settings.listen.substr(0, settings.listen.rfind(':'));
   std::cout << "yamord: listening on " << host << ":" << server.port() << std::endl;
-  Log().info("yamord {} serving world {} on {}:{} ({} evaluate workers)", YAMOR_VERSION,
-             resolved.name, host, server.port(), pool.size());
+  Log().info("yamord {} serving {} on {}:{} ({} evaluate workers)", YAMOR_VERSION, serving,
+             host, server.port(), pool.size());
   if (settings.free_run > 0.0) driver.SetFreeRun(settings.free_run);
 
   int signal_number = 0;

@@ -23,6 +23,14 @@ TEST(SettingsTest, DefaultsAreTheThesisDaemon) {
   const Settings s;
   EXPECT_EQ(s.listen, "127.0.0.1:2224");
   EXPECT_EQ(s.backend, "sim");
+  EXPECT_EQ(s.device, "");
+  EXPECT_EQ(s.baud, 115200);
+  EXPECT_EQ(s.data_bits, 8);
+  EXPECT_EQ(s.parity, "none");
+  EXPECT_EQ(s.stop_bits, 1);
+  EXPECT_EQ(s.flow_control, "none");
+  EXPECT_DOUBLE_EQ(s.hello_timeout, 0.3);
+  EXPECT_DOUBLE_EQ(s.reply_timeout, 1.0);
   EXPECT_EQ(s.workers, 0u);
   EXPECT_FALSE(s.master.has_value());
   EXPECT_NO_THROW(ValidateSettings(s));
@@ -31,6 +39,15 @@ TEST(SettingsTest, DefaultsAreTheThesisDaemon) {
 TEST(SettingsTest, ParsesEveryKeyAndRoundTripsThroughToml) {
   const Settings s = ParseSettingsToml(R"(
 listen = "0.0.0.0:3000"
+backend = "serial"
+device = "tcp://[::1]:2223"
+baud = 57600
+data_bits = 7
+parity = "even"
+stop_bits = 2
+flow_control = "hardware"
+hello_timeout = 0.5
+reply_timeout = 2.5
 world = "snake"
 config = "/etc/yamor/snake.xml"
 workers = 4
@@ -46,6 +63,23 @@ seed = 99
 10 = 0
 )", "test.toml");
   EXPECT_EQ(s.listen, "0.0.0.0:3000");
+  EXPECT_EQ(s.backend, "serial");
+  EXPECT_EQ(s.device, "tcp://[::1]:2223");
+  EXPECT_EQ(s.baud, 57600);
+  EXPECT_EQ(s.data_bits, 7);
+  EXPECT_EQ(s.parity, "even");
+  EXPECT_EQ(s.stop_bits, 2);
+  EXPECT_EQ(s.flow_control, "hardware");
+  EXPECT_DOUBLE_EQ(s.hello_timeout, 0.5);
+  EXPECT_DOUBLE_EQ(s.reply_timeout, 2.5);
+  const SerialOptions serial = SerialOptionsOf(s);
+  EXPECT_EQ(serial.device, "tcp://[::1]:2223");
+  EXPECT_EQ(serial.baud, 57600);
+  EXPECT_EQ(serial.data_bits, 7);
+  EXPECT_EQ(serial.parity, Parity::kEven);
+  EXPECT_EQ(serial.stop_bits, 2);
+  EXPECT_EQ(serial.flow_control, FlowControl::kHardware);
+  EXPECT_DOUBLE_EQ(serial.hello_timeout, 0.5);
   EXPECT_EQ(s.world, "snake");
   EXPECT_EQ(s.config, "/etc/yamor/snake.xml");
   EXPECT_EQ(s.workers, 4u);
@@ -62,6 +96,9 @@ seed = 99
   EXPECT_EQ(SettingsToToml(again), SettingsToToml(s));
   EXPECT_EQ(again.id_map, s.id_map);
   EXPECT_EQ(again.master, s.master);
+  EXPECT_EQ(again.device, s.device);
+  EXPECT_EQ(again.parity, s.parity);
+  EXPECT_DOUBLE_EQ(again.reply_timeout, s.reply_timeout);
   EXPECT_EQ(SettingsToToml(ParseSettingsToml(SettingsToToml(Settings()), "d")),
             SettingsToToml(Settings()));
 }
@@ -77,7 +114,17 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
       {"workers = -1\n", "test.toml:1: workers = -1 is outside"},
       {"master = 300\n", "test.toml:1: master = 300"},
       {"listen = \n", "test.toml:1:"},
-      {"backend = \"serial\"\n", "backend 'serial' is not available"},
+      {"backend = \"serial\"\n", "backend 'serial' needs a device"},
+      {"backend = \"usb\"\n", "backend 'usb' is not 'sim' or 'serial'"},
+      {"device = 7\n", "test.toml:1: device must be a string"},
+      {"device = \"tcp://robot\"\n", "device 'tcp://robot' is not tcp://HOST:PORT"},
+      {"baud = 12345\n", "baud 12345 is not a supported line rate"},
+      {"data_bits = 9\n", "data_bits 9 is outside 5..8"},
+      {"parity = \"mark\"\n", "parity 'mark' is not none, odd or even"},
+      {"stop_bits = 3\n", "stop_bits 3 is not 1 or 2"},
+      {"flow_control = \"rts\"\n", "flow_control 'rts' is not none, software or hardware"},
+      {"hello_timeout = 0\n", "hello_timeout"},
+      {"reply_timeout = -1.5\n", "reply_timeout -1.5"},
       {"listen = \"nowhere\"\n", "is not ADDR:PORT"},
       {"log_level = \"loud\"\n", "log_level 'loud'"},
       {"link_timeout = 0\n", "link_timeout"},
@@ -90,6 +137,25 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
     EXPECT_NE(message.find(c.expected), std::string::npos) << c.toml << " -> " << message;
   }
   EXPECT_EQ(CodeOf([] { LoadSettingsFile("/nonexistent/yamord.toml"); }), StatusCode::kNotFound);
+}
+
+TEST(SettingsTest, SerialValuesOutOfRangeAreOutOfRange) {
+  Settings s;
+  s.baud = 12345;
+  EXPECT_EQ(CodeOf([&] { ValidateSettings(s); }), StatusCode::kOutOfRange);
+  s = Settings();
+  s.stop_bits = 0;
+  EXPECT_EQ(CodeOf([&] { ValidateSettings(s); }), StatusCode::kOutOfRange);
+  s = Settings();
+  s.reply_timeout = 500.0;
+  EXPECT_EQ(CodeOf([&] { ValidateSettings(s); }), StatusCode::kOutOfRange);
+  s = Settings();
+  s.parity = "Even";
+  EXPECT_EQ(CodeOf([&] { ValidateSettings(s); }), StatusCode::kInvalidArgument);
+  s = Settings();
+  s.backend = "serial";
+  s.device = "/dev/ttyUSB0";
+  EXPECT_NO_THROW(ValidateSettings(s));
 }
 
 TEST(IdMapTest, MapsBothWaysAndRejectsCollisions) {

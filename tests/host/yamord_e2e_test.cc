@@ -13,6 +13,9 @@
 #include <iostream>
 #include <thread>
 
+#include "bridge/bridge_server.h"
+#include "bridge/bridge_transport.h"
+#include "physics/morphology.h"
 #include "tests/host/grpc_util.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
@@ -243,6 +246,52 @@ TEST(YamordTest, SettingsFileFlagsAndPrintConfig) {
   {
     Daemon d({"--listen", "127.0.0.1:0", "--world", "unicorn"});
     EXPECT_EQ(d.WaitForExit(std::chrono::seconds(20)), 2) << "unknown world: exit 2";
+  }
+}
+
+TEST(YamordTest, SerialBackendDrivesYamorBridgeOverTcpAndAMissingDeviceExits2) {
+  // yamor-bridge in-process on an ephemeral loopback port.
+  bridge::BridgeServer server(physics::Morphology::LoadFile(
+      std::string(YAMOR_SOURCE_DIR) + "/configs/worlds/quadruped.xml"));
+  bridge::BridgeTransport transport(
+      server, bridge::TransportOptions{.kind = bridge::TransportOptions::Kind::kTcp,
+                                       .tcp_port = 0});
+  std::thread serving([&] { transport.Run(/*stop_on_signals=*/false); });
+  const std::string device = "tcp://127.0.0.1:" + std::to_string(transport.Port());
+  {
+    Connection c({"--backend", "serial", "--device", device, "--hello-timeout", "5"});
+    ASSERT_GT(c.port, 0) << "yamord did not start on " << device;
+    v1::GetInfoResponse info;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::GetInfo, Empty(), &info));
+    EXPECT_EQ(info.backend(), "tcp");
+    EXPECT_EQ(info.world(), device);
+    v1::SimulationModeEnabledResponse simulation;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::SimulationModeEnabled, Empty(), &simulation));
+    EXPECT_TRUE(simulation.enabled()) << "the hello found yamor-bridge";
+    v1::ConnectRobotResponse connected;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest(),
+                   &connected));
+    EXPECT_EQ(connected.links(), 8u);
+    v1::SleepRequest sleep;
+    sleep.set_seconds(0.5);
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::Sleep, sleep));
+    v1::ElapsedTimeResponse elapsed;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::ElapsedTime, Empty(), &elapsed));
+    EXPECT_NEAR(elapsed.seconds(), 0.5, 0.01) << "virtual time, stepped over the link";
+    v1::RobotPositionResponse position;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::RobotPosition, Empty(), &position));
+    EXPECT_GT(position.position().z(), 0.0);
+    c.daemon->Signal(SIGTERM);
+    EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+  }
+  transport.Stop();
+  serving.join();
+  EXPECT_GT(server.stats().decoder.frames, 8u);
+  {
+    Daemon d({"--listen", "127.0.0.1:0", "--backend", "serial", "--device",
+              "/nonexistent/yamor/ttyUSB9"});
+    EXPECT_EQ(d.ReadAll().find("listening"), std::string::npos);
+    EXPECT_EQ(d.WaitForExit(std::chrono::seconds(20)), 2) << "device cannot be opened: exit 2";
   }
 }
 
