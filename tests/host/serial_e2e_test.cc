@@ -415,7 +415,7 @@ TEST(SerialRealRobotTest, ALinkThatNeverAnswersTimesOutNamingTheFrameAndModule) 
       << s.error_message();
   EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 5.0);
   v1::GetInfoResponse info;
-  ASSERT_OK(d.Call(&v1::Host::Stub::GetInfo, Empty(), &info)) << "the daemon lives on";
+  ASSERT_OK(d.Call(&v1::Host::Stub::GetInfo, Empty(), &info));  // the daemon lives on
 }
 
 }  // namespace
