@@ -5,6 +5,9 @@
 //   yamord                                  # quadruped on 127.0.0.1:2224
 //   yamord --listen 127.0.0.1:0 --world snake
 //   yamord --settings /etc/yamor/yamord.toml --print-config
+//   yamord --record session.rec             # every SNP frame both ways, timed
+//                                           # (docs/snp.md "Recorded sessions";
+//                                           # replay: yamor-bridge --replay)
 //
 // SIGTERM / SIGINT: stop accepting calls, cancel long Sleeps and Evaluates,
 // drain in-flight calls (up to --drain-seconds), exit 0.
@@ -25,6 +28,7 @@
 #include "host/driver.h"
 #include "host/evaluator.h"
 #include "host/id_map.h"
+#include "host/recording_backend.h"
 #include "host/service.h"
 #include "host/settings.h"
 #include "host/worlds.h"
@@ -62,6 +66,9 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   auto* free_run = app.add_option("--free-run", flags.free_run,
                                   "Free-run real-time factor at start (0 = off)");
   auto* seed = app.add_option("--seed", flags.seed, "Seed of the world opened at start");
+  auto* record = app.add_option("--record", flags.record,
+                                "Record every SNP frame both ways to FILE (docs/snp.md, "
+                                "\"Recorded sessions\"; replay with yamor-bridge --replay)");
   app.add_option("--drain-seconds", drain_seconds, "Grace period for in-flight calls on SIGTERM");
   app.add_flag("--print-config", print_config, "Print the effective settings as TOML and exit");
   try {
@@ -84,6 +91,7 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   if (link_timeout->count()) settings.link_timeout = flags.link_timeout;
   if (free_run->count()) settings.free_run = flags.free_run;
   if (seed->count()) settings.seed = flags.seed;
+  if (record->count()) settings.record = flags.record;
   ValidateSettings(settings);
   if (print_config) {
     std::cout << SettingsToToml(settings);
@@ -103,6 +111,19 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   DriverOptions driver_options{.id_map = ParseIdMap(settings.id_map),
                                .master = settings.master,
                                .link_timeout = settings.link_timeout};
+  if (!settings.record.empty()) {
+    // One file for the daemon's life; each backend the driver opens (the
+    // world at start, every OpenSimulation) starts a session in it.
+    auto writer = std::make_shared<snp::RecordingWriter>(
+        settings.record, snp::RecordAttributes{{"backend", settings.backend},
+                                               {"program", "yamord " YAMOR_VERSION}});
+    driver_options.backend_wrapper = [writer](std::unique_ptr<Backend> inner,
+                                              const snp::RecordAttributes& attributes)
+        -> std::unique_ptr<Backend> {
+      return std::make_unique<RecordingBackend>(std::move(inner), writer, attributes);
+    };
+    Log().info("recording every SNP frame to {}", settings.record);
+  }
   RobotDriver driver(driver_options, *robot_config);
   auto default_morphology = std::make_shared<const physics::Morphology>(resolved.morphology);
   driver.OpenSimulation(SimulationSpec{.morphology = std::move(resolved.morphology),

@@ -25,6 +25,8 @@ TEST(SettingsTest, DefaultsAreTheThesisDaemon) {
   EXPECT_EQ(s.backend, "sim");
   EXPECT_EQ(s.workers, 0u);
   EXPECT_FALSE(s.master.has_value());
+  EXPECT_EQ(s.record, "") << "no recording unless asked";
+  EXPECT_EQ(ParseSettingsToml(SettingsToToml(s), "d").record, "");
   EXPECT_NO_THROW(ValidateSettings(s));
 }
 
@@ -41,6 +43,7 @@ max_concurrent_calls = 8
 link_timeout = 0.5
 free_run = 1.0
 seed = 99
+record = "/var/log/yamor/session 1.rec"
 [id_map]
 0 = 10
 10 = 0
@@ -56,12 +59,14 @@ seed = 99
   EXPECT_DOUBLE_EQ(s.link_timeout, 0.5);
   EXPECT_DOUBLE_EQ(s.free_run, 1.0);
   EXPECT_EQ(s.seed, 99u);
+  EXPECT_EQ(s.record, "/var/log/yamor/session 1.rec");
   EXPECT_EQ(ParseIdMap(s.id_map).ToSim(10), 0);
 
   const Settings again = ParseSettingsToml(SettingsToToml(s), "printed");
   EXPECT_EQ(SettingsToToml(again), SettingsToToml(s));
   EXPECT_EQ(again.id_map, s.id_map);
   EXPECT_EQ(again.master, s.master);
+  EXPECT_EQ(again.record, s.record);
   EXPECT_EQ(SettingsToToml(ParseSettingsToml(SettingsToToml(Settings()), "d")),
             SettingsToToml(Settings()));
 }
@@ -81,6 +86,7 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
       {"listen = \"nowhere\"\n", "is not ADDR:PORT"},
       {"log_level = \"loud\"\n", "log_level 'loud'"},
       {"link_timeout = 0\n", "link_timeout"},
+      {"\nrecord = 5\n", "test.toml:2: record must be a string"},
       {"[id_map]\n1 = 5\n2 = 5\n", "both map to simulation id 5"},
   };
   for (const Case& c : cases) {
