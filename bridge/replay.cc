@@ -322,6 +322,12 @@ std::string FormatReplayReport(const ReplayResult& result) {
       }
     }
   }
+  if (result.samples.empty()) {
+    out << "summary: no recorded position samples to compare";
+    if (result.unmatched_samples > 0) out << " (" << result.unmatched_samples << " unmatched)";
+    out << "\n";
+    return out.str();
+  }
   out << "summary: " << result.samples.size() << " recorded position samples compared";
   if (result.unmatched_samples > 0) out << " (" << result.unmatched_samples << " unmatched)";
   out << ", mean difference " << FormatDouble(result.mean_difference)
