@@ -207,10 +207,11 @@ class SessionReplay {
   void AdvanceTo(double target, std::vector<snp::Frame>& events) {
     if (!diverged_.empty()) return;
     try {
-      while (next_row_ <= target && robot_->Time() < next_row_) {
-        robot_->Advance(next_row_ - robot_->Time(), events);
+      while (next_row_ <= target) {
+        const double row = next_row_;
+        if (row > robot_->Time()) robot_->Advance(row - robot_->Time(), events);
         EmitRows();
-        if (robot_->Time() < next_row_ - HalfStep()) break;  // a step too coarse to land
+        if (next_row_ == row) break;  // did not reach the row (cannot happen: Advance rounds)
       }
       if (target > robot_->Time()) robot_->Advance(target - robot_->Time(), events);
       EmitRows();

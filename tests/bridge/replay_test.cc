@@ -55,6 +55,14 @@ snp::Recording RecordDirectly(uint64_t seed) {
 
 ReplayOptions NoLoader() { return ReplayOptions{}; }
 
+ReplayOptions SourceWorlds() {
+  ReplayOptions options;
+  options.load_world = [](const std::string& name) {
+    return physics::Morphology::LoadFile(kSourceDir + "/configs/worlds/" + name + ".xml");
+  };
+  return options;
+}
+
 TEST(BridgeReplayTest, AStepRecordingReplaysBitForBitAndDriftIsCaught) {
   const snp::Recording recording = RecordDirectly(7);
   const ReplayResult result = Replay(recording, NoLoader());
@@ -103,6 +111,35 @@ TEST(BridgeReplayTest, RefusesWhatItCannotReplay) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("seed='x7'"), std::string::npos) << e.what();
   }
+}
+
+TEST(BridgeReplayTest, ARecordingWithoutStepsIsReplayedOnTheRecordedClock) {
+  // A real robot's recording: no Step specials, frames at wall-clock times.
+    const auto line = [](double t, const snp::Frame& f) {
+    return snp::FormatRecordLine(snp::RecordedFrame{t, Direction::kHostToRobot, f}) + "\n";
+  };
+  std::string text = snp::FormatRecordHeader({{"start", "2026-12-02T00:00:00Z"}, {"backend", "serial"}}) + "\n";
+  text += snp::FormatRecordLine(snp::RecordedOpen{10.0, {{"backend", "serial"}}}) + "\n";
+  text += line(10.5, snp::MakeFrame(Address::Host(), Address::Broadcast(),
+                                    snp::Control{.cpg = snp::Tristate::kOn}));
+  text += line(12.75, snp::MakeFrame(Address::Host(), Address::Bridge(), snp::GetRobotPosition{}));
+  const snp::Recording recording = snp::ParseRecording(text, "real.rec");
+
+  EXPECT_THROW(Replay(recording, SourceWorlds()), Error)
+      << "a real robot's session names no world";
+  ReplayOptions options = SourceWorlds();
+  options.world = "quadruped";
+  const ReplayResult result = Replay(recording, options);
+  ASSERT_EQ(result.sessions.size(), 1u);
+  EXPECT_EQ(result.sessions[0].timing, ReplayTiming::kClocked);
+  EXPECT_NEAR(result.sessions[0].end_time, 2.75, 1e-9) << "advanced to 12.75 s - 10 s";
+  ASSERT_EQ(result.rows.size(), 2u);
+  EXPECT_NEAR(result.rows[0].simulated.time, 1.0, 1e-9);
+  EXPECT_NEAR(result.rows[1].simulated.time, 2.0, 1e-9);
+  EXPECT_FALSE(result.rows[0].nearest.has_value()) << "no recorded samples";
+  EXPECT_EQ(result.samples.size(), 0u);
+  EXPECT_EQ(result.unmatched_samples, 1u) << "the replay answered a position nobody recorded";
+  EXPECT_EQ(FormatReplayCsv(result).find(",,,,,\n") != std::string::npos, true);
 }
 
 }  // namespace

@@ -173,35 +173,5 @@ TEST(ReplayTest, ASimulationRecordingReplaysBitForBit) {
   std::filesystem::remove(path);
 }
 
-TEST(ReplayTest, ARecordingWithoutStepsIsReplayedOnTheRecordedClock) {
-  // A real robot's recording: no Step specials, frames at wall-clock times.
-  const physics::Morphology morphology = QuadrupedMorphology();
-  const auto line = [](double t, const snp::Frame& f) {
-    return snp::FormatRecordLine(snp::RecordedFrame{t, Direction::kHostToRobot, f}) + "\n";
-  };
-  std::string text = snp::FormatRecordHeader({{"start", "2026-12-02T00:00:00Z"}, {"backend", "serial"}}) + "\n";
-  text += snp::FormatRecordLine(snp::RecordedOpen{10.0, {{"backend", "serial"}}}) + "\n";
-  text += line(10.5, snp::MakeFrame(Address::Host(), Address::Broadcast(),
-                                    snp::Control{.cpg = snp::Tristate::kOn}));
-  text += line(12.75, snp::MakeFrame(Address::Host(), Address::Bridge(), snp::GetRobotPosition{}));
-  const snp::Recording recording = snp::ParseRecording(text, "real.rec");
-
-  EXPECT_THROW(bridge::Replay(recording, ReplayFromSourceWorlds()), Error)
-      << "a real robot's session names no world";
-  bridge::ReplayOptions options = ReplayFromSourceWorlds();
-  options.world = "quadruped";
-  const bridge::ReplayResult result = bridge::Replay(recording, options);
-  ASSERT_EQ(result.sessions.size(), 1u);
-  EXPECT_EQ(result.sessions[0].timing, bridge::ReplayTiming::kClocked);
-  EXPECT_NEAR(result.sessions[0].end_time, 2.75, 1e-9) << "advanced to 12.75 s - 10 s";
-  ASSERT_EQ(result.rows.size(), 2u);
-  EXPECT_NEAR(result.rows[0].simulated.time, 1.0, 1e-9);
-  EXPECT_NEAR(result.rows[1].simulated.time, 2.0, 1e-9);
-  EXPECT_FALSE(result.rows[0].nearest.has_value()) << "no recorded samples";
-  EXPECT_EQ(result.samples.size(), 0u);
-  EXPECT_EQ(result.unmatched_samples, 1u) << "the replay answered a position nobody recorded";
-  EXPECT_EQ(bridge::FormatReplayCsv(result).find(",,,,,\n") != std::string::npos, true);
-}
-
 }  // namespace
 }  // namespace yamor::host
