@@ -12,6 +12,7 @@
 #include "bridge/replay.h"
 #include "common/format.h"
 #include "common/status.h"
+#include "host/builtin_robots.h"
 #include "host/driver.h"
 #include "host/recording_backend.h"
 #include "host/sim_factory.h"
