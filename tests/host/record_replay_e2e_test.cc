@@ -77,6 +77,16 @@ TEST(RecordReplayE2eTest, YamordRecordsAndYamorBridgeReplaysWithZeroDifference) 
     sleep.set_seconds(1.5);
     ASSERT_OK(Call(*stub, &v1::Host::Stub::Sleep, sleep));
     ASSERT_OK(Call(*stub, &v1::Host::Stub::RobotPosition, Empty(), &positions[1]));
+    // A simulation opened over the API is recorded as a second session.
+    v1::OpenSimulationRequest open;
+    open.set_world("snake");
+    open.set_seed(5);
+    ASSERT_OK(Call(*stub, &v1::Host::Stub::OpenSimulation, open));
+    ASSERT_OK(Call(*stub, &v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest()));
+    ASSERT_OK(Call(*stub, &v1::Host::Stub::SendControlMessage, control));
+    sleep.set_seconds(2.0);
+    ASSERT_OK(Call(*stub, &v1::Host::Stub::Sleep, sleep));
+    ASSERT_OK(Call(*stub, &v1::Host::Stub::RobotPosition, Empty()));
     daemon.Signal(SIGTERM);
     ASSERT_EQ(daemon.WaitForExit(std::chrono::seconds(20)), 0);
   }
@@ -88,14 +98,20 @@ TEST(RecordReplayE2eTest, YamordRecordsAndYamorBridgeReplaysWithZeroDifference) 
   ASSERT_NE(open, nullptr);
   EXPECT_EQ(snp::FindAttribute(open->attributes, "world"), "quadruped");
   EXPECT_EQ(snp::FindAttribute(open->attributes, "seed"), "11");
+  int opens = 0;
+  for (const snp::RecordEntry& entry : parsed.entries) opens += std::holds_alternative<snp::RecordedOpen>(entry);
+  EXPECT_EQ(opens, 2) << "the world at start and the OpenSimulation";
 
   YamordProcess bridge(YAMOR_BRIDGE_PATH, {"--replay", recording, "--csv", csv});
   const std::string report = bridge.ReadAll();
   ASSERT_EQ(bridge.WaitForExit(std::chrono::seconds(60)), 0) << report;
   std::cerr << report;
+  EXPECT_NE(report.find("session 0 (opened at"), std::string::npos) << report;
+  EXPECT_NE(report.find("world snake, seed 5"), std::string::npos) << report;
+  EXPECT_EQ(report.find("differing (first"), std::string::npos) << "every reply as recorded";
   EXPECT_NE(report.find("stepped timing"), std::string::npos) << report;
   EXPECT_NE(report.find(", 0 differing"), std::string::npos) << report;
-  EXPECT_NE(report.find("summary: 2 recorded position samples compared, mean difference 0 m, "
+  EXPECT_NE(report.find("summary: 3 recorded position samples compared, mean difference 0 m, "
                         "max difference 0 m"),
             std::string::npos)
       << report;
@@ -105,11 +121,12 @@ TEST(RecordReplayE2eTest, YamordRecordsAndYamorBridgeReplaysWithZeroDifference) 
   ASSERT_TRUE(std::getline(in, line));
   EXPECT_EQ(line, "session,time,sim_x,sim_y,sim_z,sample_time,sample_x,sample_y,sample_z,difference");
   int rows = 0;
+  int snake_rows = 0;
   bool saw_last_sample = false;
   while (std::getline(in, line)) {
     const std::vector<std::string> cells = SplitCsv(line);
     ASSERT_EQ(cells.size(), 10u) << line;
-    ++rows;
+    (cells[0] == "1" ? snake_rows : rows) += 1;
     EXPECT_EQ(cells[9], "0") << "row " << line;
     if (std::stod(cells[5]) == positions[1].time()) {
       saw_last_sample = true;
@@ -118,6 +135,7 @@ TEST(RecordReplayE2eTest, YamordRecordsAndYamorBridgeReplaysWithZeroDifference) 
     }
   }
   EXPECT_EQ(rows, 4) << "one row per simulated second of 4.5 s";
+  EXPECT_EQ(snake_rows, 2) << "the snake session: 2 s";
   EXPECT_TRUE(saw_last_sample) << "the RobotPosition read over gRPC is in the table";
   std::filesystem::remove_all(dir);
 }
