@@ -4,9 +4,9 @@
 // FILE` re-drives a simulation from it.
 //
 //   yamor-snp-recording 1 start=2026-12-02T06:34:53.123456Z backend=sim
-//   0.000412 open backend=simulation world=quadruped seed=0 time_step=0.001 master=4
+//   0.000412 open backend=simulation world=quadruped seed=0 time_step=0.002 master=4
 //   0.000530 > A5000900004E714B
-//   0.000547 < A51806000069FCA9F1D24D62503F0000000000008040D34D62105839A43F20C3
+//   0.000547 < A51806000069FCA9F1D24D62603F0000000000008040D34D62105839A43F00C4
 #pragma once
 
 #include <chrono>
