@@ -320,7 +320,18 @@ void Robot::HandleBridgeCommand(const snp::Message& message, std::vector<snp::Fr
                                           std::to_string(options_.max_step_duration) + "]");
         return;
       }
+      // A diverged world does not step: the host hears it on the Step itself
+      // (one round trip per step, not a GetDivergence after each).
+      if (world_.Diverged()) {
+        fail(StatusCode::kFailedPrecondition, "the world is diverged; GetDivergence says why");
+        return;
+      }
       Advance(m->duration, out);
+      if (world_.Diverged()) {
+        fail(StatusCode::kFailedPrecondition,
+             "the world diverged during the step; GetDivergence says why");
+        return;
+      }
       reply(snp::StepDone{.time = Time()});
     } else if (const auto* m = std::get_if<snp::SetTimer>(&message)) {
       if (!(m->delay >= 0.0 && m->delay <= options_.max_step_duration)) {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -37,6 +38,12 @@ class Backend {
 
   /// Short name for logs and GetInfo ("simulation", "serial", "fake").
   virtual std::string Name() const = 0;
+
+  /// How many times the link was opened. A link that reopens after a loss
+  /// (device unplugged, bridge restarted) counts up: the peer may have
+  /// restarted at power-on, so the host must link and configure it again.
+  /// Links that cannot reopen stay at 1.
+  virtual uint64_t Generation() const { return 1; }
 };
 
 }  // namespace yamor::host

@@ -45,10 +45,6 @@ std::string Num(double v) {
 
 std::string Id(int id) { return std::to_string(id); }
 
-std::chrono::milliseconds ToMillis(double seconds) {
-  return std::chrono::milliseconds(static_cast<int64_t>(std::ceil(std::max(0.0, seconds) * 1e3)));
-}
-
 double SecondsSince(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
@@ -116,8 +112,11 @@ Backend& RobotDriver::RequireBackendLocked(std::string_view what) const {
 SnpLink& RobotDriver::RequireSimulationLocked(std::string_view what) const {
   Backend& backend = RequireBackendLocked(what);
   if (!backend.IsSimulation()) {
-    throw Error(StatusCode::kUnimplemented, std::string(what) + " needs a simulated robot; the " +
-                                                backend.Name() + " backend has none");
+    // A real robot answers no bridge specials (docs/snp.md): what only a
+    // simulation can do is done by hand on the real one.
+    throw Error(StatusCode::kUnimplemented,
+                std::string(what) + " needs a simulated robot; the " + backend.Name() +
+                    " backend drives a real robot (the real robot needs manual assembly)");
   }
   return *link_;
 }
@@ -145,6 +144,16 @@ void RobotDriver::InstallBackendLocked(std::unique_ptr<Backend> backend) {
   backend_ = std::move(backend);
   link_ = std::make_unique<SnpLink>(*backend_, options_.id_map,
                                     SnpLinkOptions{.reply_timeout = options_.reply_timeout});
+  link_->SetReopenedHandler([this] { OnLinkReopenedLocked(); });  // called with mutex_ held
+}
+
+void RobotDriver::OnLinkReopenedLocked() {
+  if (connected_) relink_needed_ = true;
+  connected_ = false;
+  diverged_ = false;  // a restarted bridge has a fresh world
+  divergence_.clear();
+  PushEvent(StateEvent{.kind = "link_reopened",
+                       .detail = backend_->Name() + " link reopened; the robot may have restarted"});
 }
 
 void RobotDriver::CheckDivergedLocked() {
@@ -152,6 +161,9 @@ void RobotDriver::CheckDivergedLocked() {
     throw Error(StatusCode::kFailedPrecondition,
                 "world diverged (" + divergence_ + "): call ResetSimulation or OpenSimulation");
   }
+}
+
+void RobotDriver::QueryDivergenceLocked() {
   if (!backend_ || !backend_->IsSimulation()) return;
   const snp::Message m = BridgeRequestLocked(snp::GetDivergence{}, snp::MessageType::kDivergence);
   const auto& info = std::get<snp::Divergence>(m);
@@ -171,11 +183,11 @@ void RobotDriver::StepLocked(double seconds) {
     const snp::Message m = BridgeRequestLocked(snp::Step{.duration = seconds},
                                                snp::MessageType::kStepDone);
     sim_time_ = std::get<snp::StepDone>(m).time;
-  } catch (const Error&) {
-    CheckDivergedLocked();  // a divergence explains the failure better
+  } catch (const Error& e) {
+    // The bridge refuses a Step into a diverged world: ask where and why.
+    if (e.code() == StatusCode::kFailedPrecondition) QueryDivergenceLocked();
     throw;
   }
-  CheckDivergedLocked();
   if (state_.Watched()) RecordSampleLocked();
 }
 
@@ -211,6 +223,8 @@ void RobotDriver::CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
 
 void RobotDriver::ResetRobotStateLocked() {
   connected_ = false;
+  relink_needed_ = false;
+  control_state_.clear();
   diverged_ = false;
   divergence_.clear();
   sim_time_ = 0.0;
@@ -309,7 +323,15 @@ void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string wo
     time_step_ = std::get<snp::SimInfo>(info).time_step;
     accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
     accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
-    world_morphology_ = physics::Morphology::Parse(link_->ReadMorphologyXml(), world_name_);
+    try {
+      world_morphology_ = physics::Morphology::Parse(link_->ReadMorphologyXml(), world_name_);
+    } catch (const Error& e) {
+      if (e.code() != StatusCode::kUnimplemented) throw;
+      // A peer without morphology readback: configurations are not checked
+      // against its world, and GetMorphology says why it cannot answer.
+      Log().warn("driver: the {} backend cannot read its morphology back: {}", backend_->Name(),
+                 e.what());
+    }
   }
   attached_at_ = Clock::now();
   PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
@@ -498,6 +520,63 @@ int RobotDriver::RefreshLocked() {
   return frames;
 }
 
+void RobotDriver::LinkTreeLocked(double timeout, const CancelCheck& cancel,
+                                 ConnectResult& result) {
+  const int master = config_.master_id;
+  if (backend_->IsSimulation()) {
+    BridgeRequestLocked(snp::SetMasterNode{.module = static_cast<uint8_t>(master)},
+                        snp::MessageType::kSpecialAck);
+    ++result.frames_sent;
+  }
+  std::map<int, std::vector<int>> children;
+  for (const auto& [child, parent] : config_.bluetooth_parent) children[parent].push_back(child);
+  const int total = static_cast<int>(config_.bluetooth_parent.size());
+  std::deque<int> queue{master};
+  while (!queue.empty()) {
+    const int parent = queue.front();
+    queue.pop_front();
+    for (int child : children[parent]) {
+      const std::string link = "link " + Id(parent) + " -> " + Id(child);
+      const std::string progress =
+          " (" + Id(result.links) + " of " + Id(total) + " links up)";
+      // A radio link can miss once: retry it a bounded number of times, and
+      // name the link and what the last attempt saw when it never comes up.
+      const int attempts = 1 + options_.link_retries;
+      bool up = false;
+      bool timed_out = false;
+      for (int attempt = 1; attempt <= attempts && !up; ++attempt) {
+        if (shutdown_) ThrowShutdown("ConnectRobot");
+        if (cancel && cancel()) {
+          throw Error(StatusCode::kCancelled, "ConnectRobot cancelled during " + link + progress);
+        }
+        std::optional<snp::Message> reply = link_->ModuleRequest(
+            parent, snp::ConnectRequest{.child = static_cast<uint8_t>(child)},
+            snp::MessageType::kConnectAck, timeout);
+        ++result.frames_sent;
+        timed_out = !reply;
+        up = reply && std::get<snp::ConnectAck>(*reply).status == snp::LinkStatus::kUp;
+        if (!up && attempt < attempts) {
+          Log().warn("driver: {} {} (attempt {} of {}), retrying", link,
+                     timed_out ? "timed out" : "failed", attempt, attempts);
+        }
+      }
+      const std::string tries =
+          attempts == 1 ? std::string() : " (" + Id(attempts) + " attempts)";
+      if (!up && timed_out) {
+        throw Error(StatusCode::kUnavailable, link + " timed out after " + Num(timeout) + " s" +
+                                                  tries + progress);
+      }
+      if (!up) {
+        throw Error(StatusCode::kUnavailable, link + " failed: module " + Id(parent) +
+                                                  " could not reach module " + Id(child) + tries +
+                                                  progress);
+      }
+      ++result.links;
+      queue.push_back(child);
+    }
+  }
+}
+
 ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
                                         const CancelCheck& cancel) {
   if (!std::isfinite(link_timeout)) {
@@ -518,44 +597,9 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
                     " but the master node setting is " + Id(*options_.master));
   }
   connected_ = false;
+  relink_needed_ = false;
   ConnectResult result;
-  if (backend.IsSimulation()) {
-    BridgeRequestLocked(snp::SetMasterNode{.module = static_cast<uint8_t>(master)},
-                        snp::MessageType::kSpecialAck);
-    ++result.frames_sent;
-  }
-  std::map<int, std::vector<int>> children;
-  for (const auto& [child, parent] : config_.bluetooth_parent) children[parent].push_back(child);
-  const int total = static_cast<int>(config_.bluetooth_parent.size());
-  std::deque<int> queue{master};
-  while (!queue.empty()) {
-    const int parent = queue.front();
-    queue.pop_front();
-    for (int child : children[parent]) {
-      const std::string link = "link " + Id(parent) + " -> " + Id(child);
-      const std::string progress =
-          " (" + Id(result.links) + " of " + Id(total) + " links up)";
-      if (shutdown_) ThrowShutdown("ConnectRobot");
-      if (cancel && cancel()) {
-        throw Error(StatusCode::kCancelled, "ConnectRobot cancelled before " + link + progress);
-      }
-      std::optional<snp::Message> reply = link_->ModuleRequest(
-          parent, snp::ConnectRequest{.child = static_cast<uint8_t>(child)},
-          snp::MessageType::kConnectAck, timeout);
-      ++result.frames_sent;
-      if (!reply) {
-        throw Error(StatusCode::kUnavailable, link + " timed out after " + Num(timeout) + " s" +
-                                                  progress);
-      }
-      if (std::get<snp::ConnectAck>(*reply).status != snp::LinkStatus::kUp) {
-        throw Error(StatusCode::kUnavailable, link + " failed: module " + Id(parent) +
-                                                  " could not reach module " + Id(child) +
-                                                  progress);
-      }
-      ++result.links;
-      queue.push_back(child);
-    }
-  }
+  LinkTreeLocked(timeout, cancel, result);
   connected_ = true;
   attached_at_ = backend.IsSimulation() ? attached_at_ : Clock::now();
   PushEvent(StateEvent{.kind = "connected", .detail = Id(result.links) + " links"});
@@ -589,8 +633,57 @@ int RobotDriver::Flush() {
 int RobotDriver::Refresh() {
   Lock lock(mutex_);
   RequireBackendLocked("Refresh");
+  if (relink_needed_) return RestoreAfterReopenLocked();
   RequireConnectedLocked("Refresh");
   return RefreshLocked();
+}
+
+int RobotDriver::RestoreAfterReopenLocked() {
+  Backend& backend = *backend_;
+  if (backend.IsSimulation()) {
+    // A restarted bridge may run another world: ask again, as AttachBackend.
+    const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
+    time_step_ = std::get<snp::SimInfo>(info).time_step;
+    accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
+    accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
+    sim_time_ = std::get<snp::SimTime>(
+                    BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime))
+                    .seconds;
+  }
+  ConnectResult result;
+  result.frames_sent = backend.IsSimulation() ? 2 : 0;  // GetSimInfo, GetSimTime
+  LinkTreeLocked(options_.link_timeout, nullptr, result);
+  connected_ = true;
+  relink_needed_ = false;
+  int frames = result.frames_sent + RefreshLocked();
+  // What the robot had before the loss, on top of its configuration.
+  for (const auto& [id, control] : control_state_) {
+    snp::Control restore = control;
+    if (motor_defects_.count(id) && restore.motors == snp::Tristate::kOn) {
+      restore.motors = snp::Tristate::kUnchanged;
+    }
+    if (restore == snp::Control{}) continue;
+    ModuleCallLocked(id, restore, snp::MessageType::kAck);
+    ++frames;
+  }
+  if (backend.IsSimulation()) {
+    for (const auto& [id, defect] : motor_defects_) {
+      BridgeRequestLocked(snp::SetMotorFault{.module = static_cast<uint8_t>(id),
+                                             .fault = ToFault(defect)},
+                          snp::MessageType::kSpecialAck);
+      ++frames;
+    }
+    for (int id : module_defects_) {
+      BridgeRequestLocked(snp::SetModuleDefect{.module = static_cast<uint8_t>(id), .defective = true},
+                          snp::MessageType::kSpecialAck);
+      ++frames;
+    }
+  }
+  PushEvent(StateEvent{.kind = "restored",
+                       .detail = Id(result.links) + " links, configuration, " +
+                                 Id(static_cast<int>(control_state_.size())) +
+                                 " modules' switches"});
+  return frames;
 }
 
 void RobotDriver::SendControlMessage(const ControlMessage& message) {
@@ -629,6 +722,10 @@ void RobotDriver::SendControlMessage(const ControlMessage& message) {
     }
     if (control == snp::Control{}) continue;  // nothing left to change
     ModuleCallLocked(id, control, snp::MessageType::kAck);
+    snp::Control& known = control_state_[id];  // kept to restore after a reopened link
+    if (control.uart != snp::Tristate::kUnchanged) known.uart = control.uart;
+    if (control.cpg != snp::Tristate::kUnchanged) known.cpg = control.cpg;
+    if (control.motors != snp::Tristate::kUnchanged) known.motors = control.motors;
   }
 }
 

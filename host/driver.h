@@ -52,6 +52,9 @@ struct DriverOptions {
   std::optional<int> master;
   /// Default wait for each link's ConnectAck [s].
   double link_timeout = 2.0;
+  /// Further ConnectRequests for a link that timed out or failed before
+  /// ConnectRobot gives up on it (a radio link can miss once).
+  int link_retries = 2;
   /// Wait for a module's or the bridge's reply on a real link [s] (a
   /// simulation answers synchronously and never waits).
   double reply_timeout = 1.0;
@@ -211,14 +214,19 @@ class RobotDriver {
 
   /// Builds the bluetooth network in tree order (parent before child), one
   /// ConnectRequest at a time, each waiting for its ConnectAck up to
-  /// `link_timeout` seconds (<= 0: the default). UNAVAILABLE names the link:
-  /// "link 4 -> 7 timed out after 2 s". Unless `links_only`, then sends the
-  /// whole configuration (as Refresh).
+  /// `link_timeout` seconds (<= 0: the default) and retried up to
+  /// `link_retries` times. UNAVAILABLE names the link and the attempts:
+  /// "link 4 -> 7 timed out after 2 s (3 attempts)". Unless `links_only`,
+  /// then sends the whole configuration (as Refresh).
   ConnectResult ConnectRobot(double link_timeout, bool links_only, const CancelCheck& cancel);
   /// Sends the queued changes; returns the number of frames. On an error the
   /// changes not yet sent stay queued and the message says how many.
   int Flush();
   /// Resends every parameter and coupling; returns the number of frames.
+  /// After the link was lost and reopened (the peer may have restarted at
+  /// power-on), first links the robot again (as ConnectRobot) and afterwards
+  /// restores the control switches and defects it had: the configuration
+  /// survives the loss.
   int Refresh();
   /// Sends a tristate control message to each target (unicast, acknowledged).
   /// Motor-on is never forwarded to a module with a motor defect.
@@ -306,10 +314,21 @@ class RobotDriver {
   SnpLink& RequireSimulationLocked(std::string_view what) const;
   void RequireConnectedLocked(std::string_view what) const;
   void InstallBackendLocked(std::unique_ptr<Backend> backend);
+  // Builds the bluetooth tree (SetMasterNode on a simulation, then each link
+  // with its retries); counts into `result`.
+  void LinkTreeLocked(double timeout, const CancelCheck& cancel, ConnectResult& result);
+  // SnpLink's reopened handler: the robot is no longer linked.
+  void OnLinkReopenedLocked();
+  // Refresh after a reopened link: link, configure, restore switches and defects.
+  int RestoreAfterReopenLocked();
   // Shorthands for link_ (mutex_ held, a backend attached).
   snp::Message ModuleCallLocked(int id, const snp::Message& message, snp::MessageType reply);
   snp::Message BridgeRequestLocked(const snp::Message& message, snp::MessageType reply);
+  // Throws FAILED_PRECONDITION when the world is known to be diverged.
   void CheckDivergedLocked();
+  // Asks the bridge (GetDivergence); when diverged, records it, pushes the
+  // event and throws FAILED_PRECONDITION.
+  void QueryDivergenceLocked();
   void StepLocked(double seconds);
   void RecordSampleLocked();
   int SendModuleConfigLocked(const cpg::ModuleParams& module, const PendingModule* only);
@@ -335,6 +354,8 @@ class RobotDriver {
   double accelerometer_count_ = 0.0395;          // guarded by mutex_ (MMA7260Q, 1.5 g range)
   std::string world_name_;                       // guarded by mutex_
   bool connected_ = false;                       // guarded by mutex_
+  bool relink_needed_ = false;                   // guarded by mutex_ (link reopened while connected)
+  std::map<int, snp::Control> control_state_;    // guarded by mutex_ (last switches per real id)
   bool diverged_ = false;                        // guarded by mutex_
   std::string divergence_;                       // guarded by mutex_
   double sim_time_ = 0.0;                        // guarded by mutex_

@@ -53,21 +53,20 @@ class Session {
   // Advances by `steps` physics steps; false when the world diverged, with
   // the reason in `divergence`.
   bool Step(int64_t steps, double time_step, std::string& divergence) {
-    std::optional<Error> failure;
     try {
       link_.BridgeRequest(snp::Step{.duration = static_cast<double>(steps) * time_step},
                           snp::MessageType::kStepDone);
+      return true;
     } catch (const Error& e) {
-      failure = e;
-    }
-    const snp::Message m = link_.BridgeRequest(snp::GetDivergence{}, snp::MessageType::kDivergence);
-    const auto& d = std::get<snp::Divergence>(m);
-    if (d.diverged) {
+      // The bridge refuses a Step into a diverged world (docs/snp.md).
+      if (e.code() != StatusCode::kFailedPrecondition) throw;
+      const snp::Message m =
+          link_.BridgeRequest(snp::GetDivergence{}, snp::MessageType::kDivergence);
+      const auto& d = std::get<snp::Divergence>(m);
+      if (!d.diverged) throw;
       divergence = d.reason + " at t = " + Num(d.time) + " s";
       return false;
     }
-    if (failure) throw *failure;
-    return true;
   }
 
   RobotPose Position() {

@@ -36,7 +36,8 @@ SnpLink::SnpLink(Backend& backend, IdMap id_map, SnpLinkOptions options)
     : backend_(&backend),
       id_map_(std::move(id_map)),
       options_(options),
-      map_ids_(backend.IsSimulation()) {}
+      map_ids_(backend.IsSimulation()),
+      generation_(backend.Generation()) {}
 
 int SnpLink::Wire(int real) const { return map_ids_ ? id_map_.ToSim(real) : real; }
 
@@ -62,6 +63,23 @@ void SnpLink::SetUnsolicitedHandler(std::function<void(const snp::Frame&)> handl
   unsolicited_ = std::move(handler);
 }
 
+void SnpLink::SetReopenedHandler(std::function<void()> handler) {
+  reopened_ = std::move(handler);
+}
+
+void SnpLink::SendFrame(const snp::Frame& frame) {
+  backend_->Send(frame);
+  const uint64_t generation = backend_->Generation();
+  if (generation == generation_) return;
+  generation_ = generation;
+  if (reopened_) reopened_();
+  throw Error(StatusCode::kUnavailable,
+              "the " + backend_->Name() + " link was lost and reopened before " +
+                  std::string(snp::MessageTypeName(frame.type)) +
+                  ": the robot may have restarted at power-on; Refresh (or ConnectRobot) "
+                  "links and configures it again");
+}
+
 void SnpLink::Unsolicited(const snp::Frame& frame) {
   if (unsolicited_) {
     unsolicited_(frame);
@@ -77,7 +95,7 @@ std::optional<snp::Message> SnpLink::ModuleRequest(int id, const snp::Message& m
   const Address module = Address::Module(static_cast<uint8_t>(wire));
   const snp::Message wire_message = ToWire(message);
   const snp::MessageType type = snp::TypeOf(message);
-  backend_->Send(snp::MakeFrame(Address::Host(), module, wire_message));
+  SendFrame(snp::MakeFrame(Address::Host(), module, wire_message));
   const Clock::time_point deadline = Clock::now() + ToMillis(timeout);
   while (true) {
     std::optional<snp::Frame> frame = backend_->Receive(Remaining(deadline));
@@ -130,7 +148,7 @@ snp::Message SnpLink::ModuleCall(int id, const snp::Message& message, snp::Messa
 
 snp::Message SnpLink::BridgeRequest(const snp::Message& message, snp::MessageType reply) {
   const snp::MessageType type = snp::TypeOf(message);
-  backend_->Send(snp::MakeFrame(Address::Host(), Address::Bridge(), ToWire(message)));
+  SendFrame(snp::MakeFrame(Address::Host(), Address::Bridge(), ToWire(message)));
   const Clock::time_point deadline = Clock::now() + ToMillis(options_.reply_timeout);
   while (true) {
     std::optional<snp::Frame> frame = backend_->Receive(Remaining(deadline));

@@ -47,6 +47,10 @@ class SnpLink {
 
   /// Called with every frame that is not the awaited reply.
   void SetUnsolicitedHandler(std::function<void(const snp::Frame&)> handler);
+  /// Called (before the call fails) when a send went out on a link that had
+  /// been lost and reopened (Backend::Generation changed): the peer may be
+  /// at power-on, unlinked and unconfigured.
+  void SetReopenedHandler(std::function<void()> handler);
 
   /// Sends a module message to real module `id` and waits up to `timeout`
   /// seconds for `reply` (kAck: the Ack of this type); nullopt when nothing
@@ -69,12 +73,16 @@ class SnpLink {
 
  private:
   void Unsolicited(const snp::Frame& frame);
+  // Sends one frame; throws UNAVAILABLE when it went out on a reopened link.
+  void SendFrame(const snp::Frame& frame);
 
   Backend* backend_;
   IdMap id_map_;
   SnpLinkOptions options_;
   bool map_ids_;
   std::function<void(const snp::Frame&)> unsolicited_;
+  std::function<void()> reopened_;
+  uint64_t generation_;  // Backend::Generation() when the link last saw it
 };
 
 }  // namespace yamor::host

@@ -39,6 +39,7 @@ class DriverFakeTest : public ::testing::Test {
     auto fake = std::make_unique<FakeBackend>(simulation);
     FakeBackend* raw = fake.get();
     driver_->AttachBackend(std::move(fake), "fake");
+    raw->sent.clear();  // what the simulation is (GetSimInfo, ReadMorphology) is asked at attach
     return raw;
   }
   // Connects (links only) and forgets the frames that took.
@@ -180,6 +181,83 @@ TEST_F(DriverFakeTest, ConnectRobotNamesTheLinkThatTimedOutAndStopsThere) {
 
   fake->failed_links.clear();
   EXPECT_EQ(CodeOf([&] { driver_->ConnectRobot(0.0, false, nullptr); }), StatusCode::kOk);
+}
+
+TEST_F(DriverFakeTest, ConnectRobotRetriesALinkThatMissesAndNamesTheAttempts) {
+  FakeBackend* fake = Attach(true, {}, QuadrupedConfig());
+  fake->flaky_links[{2, 7}] = 2;  // two misses: the third and last attempt works
+  const ConnectResult result = driver_->ConnectRobot(0.0, /*links_only=*/true, nullptr);
+  EXPECT_EQ(result.links, 8);
+  int requests = 0;
+  for (const snp::Frame& f : fake->sent) {
+    if (f == ToModule(2, snp::ConnectRequest{.child = 7})) ++requests;
+  }
+  EXPECT_EQ(requests, 3);
+  EXPECT_TRUE(driver_->Info().connected);
+
+  fake->sent.clear();
+  fake->flaky_links[{2, 7}] = 3;  // one miss more than the retries allow
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { driver_->ConnectRobot(0.0, true, nullptr); }, &message),
+            StatusCode::kUnavailable);
+  EXPECT_NE(message.find("link 2 -> 7 timed out after 2 s (3 attempts)"), std::string::npos)
+      << message;
+  requests = 0;
+  for (const snp::Frame& f : fake->sent) {
+    if (f == ToModule(2, snp::ConnectRequest{.child = 7})) ++requests;
+  }
+  EXPECT_EQ(requests, 3) << "bounded: 1 + link_retries requests, then give up";
+}
+
+TEST_F(DriverFakeTest, AReopenedLinkFailsTheCallAndRefreshRelinksAndRestoresTheRobot) {
+  FakeBackend* fake = Attach(true, {}, QuadrupedConfig());
+  driver_->ConnectRobot(0.0, false, nullptr);
+  driver_->SendControlMessage(ControlMessage{.cpg = snp::Tristate::kOn,
+                                             .motors = snp::Tristate::kOn, .all = true});
+  std::map<int, snp::Control> switched;  // what the control message sent, per module
+  for (const snp::Frame& f : fake->sent) {
+    const snp::Message m = snp::DecodeMessage(f);
+    if (const auto* c = std::get_if<snp::Control>(&m)) switched[f.destination.id] = *c;
+  }
+  driver_->SetMotorDefect(3, MotorDefect::kStuck);
+  const size_t before = fake->sent.size();
+
+  fake->generation = 2;  // the peer went away and the backend reopened the link
+  driver_->SetModuleValue(0, ModuleField::kAmplitude, 0.3);
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { driver_->Flush(); }, &message), StatusCode::kUnavailable);
+  EXPECT_NE(message.find("lost and reopened"), std::string::npos) << message;
+  EXPECT_NE(message.find("Refresh"), std::string::npos) << message;
+  EXPECT_FALSE(driver_->Info().connected);
+  EXPECT_EQ(fake->sent.size(), before + 1) << "nothing more after the frame that found the loss";
+  EXPECT_EQ(CodeOf([&] { driver_->Flush(); }), StatusCode::kFailedPrecondition)
+      << "not linked any more until Refresh";
+
+  fake->sent.clear();
+  const int frames = driver_->Refresh();
+  EXPECT_TRUE(driver_->Info().connected);
+  const std::vector<snp::Message> sent = fake->SentMessages();
+  EXPECT_EQ(frames, static_cast<int>(sent.size()));
+  int links = 0, controls = 0, faults = 0;
+  for (size_t i = 0; i < sent.size(); ++i) {
+    if (std::holds_alternative<snp::ConnectRequest>(sent[i])) ++links;
+    if (const auto* c = std::get_if<snp::Control>(&sent[i])) {
+      ++controls;
+      const int id = fake->sent[i].destination.id;
+      snp::Control expected = switched.at(id);
+      // Module 3's motor is defect since: its motor-on is not restored.
+      if (id == 3) expected.motors = snp::Tristate::kUnchanged;
+      EXPECT_EQ(*c, expected) << "module " << id;
+    }
+    if (std::holds_alternative<snp::SetMotorFault>(sent[i])) ++faults;
+  }
+  EXPECT_EQ(links, 8);
+  EXPECT_EQ(controls, 9);
+  EXPECT_EQ(faults, 1);
+  EXPECT_EQ(driver_->GetModuleValue(0, ModuleField::kAmplitude), 0.3)
+      << "the configuration survives the loss";
+  EXPECT_EQ(driver_->PendingChanges(), 0) << "Refresh sent everything";
+  EXPECT_EQ(CodeOf([&] { driver_->Flush(); }), StatusCode::kOk);
 }
 
 TEST_F(DriverFakeTest, ConnectRobotRefusesATreeNotRootedAtTheMasterSetting) {

@@ -33,11 +33,18 @@ class FakeBackend final : public Backend {
   }
   bool IsSimulation() const override { return simulation_; }
   std::string Name() const override { return "fake"; }
+  uint64_t Generation() const override { return generation; }
+
+  /// Backend::Generation: a test bumps it to play a link lost and reopened.
+  uint64_t generation = 1;
 
   /// Every frame sent, in order.
   std::vector<snp::Frame> sent;
   /// ConnectRequests parent -> child (wire ids) that get no answer.
   std::set<std::pair<int, int>> silent_links;
+  /// ConnectRequests parent -> child (wire ids) that get no answer this many
+  /// more times, then work (a radio link that misses).
+  std::map<std::pair<int, int>, int> flaky_links;
   /// ConnectRequests parent -> child (wire ids) answered "failed".
   std::set<std::pair<int, int>> failed_links;
   /// (module wire id, message type) refused with this code.
@@ -70,6 +77,14 @@ class FakeBackend final : public Backend {
       if (!simulation_) {
         reply(snp::SpecialError{.acked = type, .code = StatusCode::kUnimplemented,
                                 .text = "manual assembly required"});
+      } else if (std::holds_alternative<snp::GetSimInfo>(m)) {
+        reply(snp::SimInfo{.time_step = 0.001, .accelerometer_zero = 512.0,
+                           .accelerometer_count = 0.0395});
+      } else if (std::holds_alternative<snp::GetDivergence>(m)) {
+        reply(snp::Divergence{.diverged = false, .time = time});
+      } else if (std::holds_alternative<snp::ReadMorphology>(m)) {
+        reply(snp::SpecialError{.acked = type, .code = StatusCode::kUnimplemented,
+                                .text = "no morphology in this fake"});
       } else if (std::holds_alternative<snp::GetSimTime>(m)) {
         reply(snp::SimTime{.seconds = time});
       } else if (const auto* step = std::get_if<snp::Step>(&m)) {
@@ -100,6 +115,10 @@ class FakeBackend final : public Backend {
     if (const auto* request = std::get_if<snp::ConnectRequest>(&m)) {
       const std::pair<int, int> link{id, request->child};
       if (silent_links.count(link)) return out;
+      if (auto flaky = flaky_links.find(link); flaky != flaky_links.end() && flaky->second > 0) {
+        --flaky->second;
+        return out;
+      }
       from_module(snp::ConnectAck{.child = request->child,
                                   .status = failed_links.count(link) ? snp::LinkStatus::kFailed
                                                                      : snp::LinkStatus::kUp});

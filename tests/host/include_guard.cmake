@@ -5,6 +5,7 @@
 # description model and its XML parsers (no world, no ODE); the RPC API and
 # the driver still take and return a physics::Morphology value.
 # Run: cmake -DSOURCE_DIR=<repo> -P tests/host/include_guard.cmake
+cmake_policy(SET CMP0057 NEW)  # if(... IN_LIST ...)
 file(GLOB host_files "${SOURCE_DIR}/host/*.h" "${SOURCE_DIR}/host/*.cc")
 set(backend_files sim_backend.h sim_backend.cc)
 set(allowed_headers physics/morphology.h physics/script.h)

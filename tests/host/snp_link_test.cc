@@ -28,7 +28,7 @@ TEST(SnpLinkTest, MorphologyReadbackIsTheCurrentMorphologyAcrossChunks) {
 
 TEST(SnpLinkTest, SpecialsReachTheSimulationWithMappedIds) {
   SimBackend backend(testing::SnakeWithSpares(), bridge::RobotOptions{});
-  SnpLink link(backend, IdMap({{100, 2}}));
+  SnpLink link(backend, IdMap(std::map<int, int>{{100, 2}}));
   EXPECT_EQ(link.Wire(100), 2);
   EXPECT_EQ(link.Real(2), 100);
   link.BridgeRequest(snp::SetMotorFault{.module = 100, .fault = snp::MotorFault::kStuck},
