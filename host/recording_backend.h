@@ -38,6 +38,8 @@ class RecordingBackend final : public Backend {
   bool IsSimulation() const override { return inner_->IsSimulation(); }
   /// The inner backend's name.
   std::string Name() const override { return inner_->Name(); }
+  /// The inner backend's link generation (a reopened link counts up).
+  uint64_t Generation() const override { return inner_->Generation(); }
 
   /// Frames recorded by this backend (both directions).
   uint64_t frames_recorded() const { return frames_recorded_; }
