@@ -6,12 +6,19 @@
 //   yamor-bridge --tcp 2223                     # prints "yamor-bridge: tcp 127.0.0.1:2223"
 //   yamor-bridge --tcp 0.0.0.0:2223 --world snake --pace --baud 115200
 //   yamor-bridge --pty --real-time 1            # the world free-runs at wall-clock speed
+//   yamor-bridge --replay session.rec [--world quadruped] [--csv gap.csv]
+//
+// --replay FILE replays a recording of `yamord --record` (docs/snp.md,
+// "Recorded sessions") into a fresh simulation and prints, per second of
+// simulated time, the simulated central-module position next to the recorded
+// position samples, then the mean and max difference; it serves nothing.
 //
 // SIGTERM / SIGINT: exit 0. Bad flags: exit 2.
 #include <signal.h>
 
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <set>
 #include <string>
@@ -20,6 +27,7 @@
 
 #include "bridge/bridge_server.h"
 #include "bridge/bridge_transport.h"
+#include "bridge/replay.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "physics/morphology.h"
@@ -91,6 +99,19 @@ int Run(int argc, char** argv) {
           ->check(CLI::Range(0, 254));
   app.add_option("--time-step", time_step, "Physics step [s]")->check(CLI::Range(1e-5, 0.1));
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off");
+  std::string replay_file;
+  std::string csv_file;
+  double row_period = 1.0;
+  auto* replay_option = app.add_option(
+      "--replay", replay_file,
+      "Replay a yamord --record FILE into a simulation and compare positions (serves nothing)");
+  replay_option->excludes(tcp_option)->excludes(pty_flag);
+  app.add_option("--csv", csv_file, "With --replay: write the table as CSV to FILE ('-': stdout)")
+      ->needs(replay_option);
+  app.add_option("--row-period", row_period,
+                 "With --replay: simulated seconds between table rows")
+      ->needs(replay_option)
+      ->check(CLI::Range(1e-3, 3600.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -108,6 +129,35 @@ int Run(int argc, char** argv) {
   } catch (const Error& e) {
     std::cerr << "yamor-bridge: " << e.what() << "\nRun with --help for more information.\n";
     return kUsageExitCode;
+  }
+
+  if (replay_option->count()) {
+    // Flags given override what the recording says; the rest comes from it.
+    const snp::Recording recording = snp::LoadRecordingFile(replay_file);
+    ReplayOptions replay_options;
+    replay_options.load_world = [&worlds_dir](const std::string& name) {
+      return LoadWorld(name, worlds_dir);
+    };
+    if (world_option->count() || app.count("--morphology")) replay_options.world = world;
+    if (app.count("--seed")) replay_options.seed = seed;
+    if (app.count("--time-step")) replay_options.time_step = time_step;
+    if (master_option->count()) replay_options.master = master;
+    replay_options.row_period = row_period;
+    const ReplayResult result = Replay(recording, replay_options);
+    if (csv_file == "-") {
+      std::cout << FormatReplayCsv(result);
+    } else {
+      if (!csv_file.empty()) {
+        std::ofstream csv(csv_file);
+        csv << FormatReplayCsv(result);
+        if (!csv.flush()) throw Error(StatusCode::kNotFound, "cannot write " + csv_file);
+      }
+      std::cout << FormatReplayReport(result);
+    }
+    if (recording.torn_lines > 0) {
+      std::cerr << "yamor-bridge: " << replay_file << ": skipped a torn last line\n";
+    }
+    return 0;
   }
 
   robot_options.world.seed = seed;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
@@ -276,7 +277,17 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
       .seed = spec.seed,
       .master = options_.id_map.ToSim(options_.master.value_or(config.master_id))};
   world_morphology_ = spec.morphology;
-  InstallBackendLocked(MakeSimBackend(std::move(spec.morphology), sim_options));
+  std::unique_ptr<Backend> backend = MakeSimBackend(std::move(spec.morphology), sim_options);
+  if (options_.backend_wrapper) {
+    backend = options_.backend_wrapper(
+        std::move(backend), {{"backend", "simulation"},
+                             {"world", spec.world_name},
+                             {"seed", std::to_string(spec.seed)},
+                             {"time_step", FormatDouble(time_step)},
+                             {"master", std::to_string(sim_options.master)},
+                             {"morphology", world_morphology_->ToXml()}});
+  }
+  InstallBackendLocked(std::move(backend));
   accelerometer_zero_ = 512.0;
   accelerometer_count_ = 0.0395;
   const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
@@ -295,6 +306,9 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
 
 void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string world_name) {
   YAMOR_CHECK(backend != nullptr, "AttachBackend needs a backend");
+  if (options_.backend_wrapper) {
+    backend = options_.backend_wrapper(std::move(backend), {{"world", world_name}});
+  }
   Lock lock(mutex_);
   InstallBackendLocked(std::move(backend));
   world_name_ = std::move(world_name);

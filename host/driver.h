@@ -31,6 +31,7 @@
 #include "cpg/parameters.h"
 #include "physics/morphology.h"
 #include "proto/snp/messages.h"
+#include "proto/snp/recording.h"
 
 namespace yamor::host {
 
@@ -62,6 +63,13 @@ struct DriverOptions {
   double sleep_chunk = 0.05;
   /// Longest Sleep [s].
   double max_sleep = 24.0 * 3600.0;
+  /// Wraps every backend the driver installs (OpenSimulation, AttachBackend),
+  /// e.g. in a RecordingBackend for `yamord --record`; `attributes` describe
+  /// it (backend, world, and for a simulation seed, time_step, master,
+  /// morphology). Unset: backends are used as built.
+  std::function<std::unique_ptr<Backend>(std::unique_ptr<Backend> backend,
+                                         const snp::RecordAttributes& attributes)>
+      backend_wrapper;
 };
 
 /// A resolved simulation to open: a morphology plus, optionally, a new

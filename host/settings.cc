@@ -123,6 +123,8 @@ Settings ParseSettingsToml(std::string_view text, std::string_view source) {
       s.link_timeout = GetNumber(source, node, key);
     } else if (key == "free_run") {
       s.free_run = GetNumber(source, node, key);
+    } else if (key == "record") {
+      s.record = GetString(source, node, key);
     } else if (key == "seed") {
       s.seed = static_cast<uint64_t>(
           GetInteger(source, node, key, 0, std::numeric_limits<int64_t>::max()));
@@ -232,6 +234,7 @@ std::string SettingsToToml(const Settings& s) {
   out << "link_timeout = " << toml::value<double>(s.link_timeout) << "\n";
   out << "free_run = " << toml::value<double>(s.free_run) << "\n";
   out << "seed = " << s.seed << "\n";
+  out << "record = " << Quote(s.record) << "  # \"\" = no recording of SNP frames\n";
   out << "\n[id_map]  # real id = simulation id\n";
   const IdMap id_map = ParseIdMap(s.id_map);
   for (const auto& [real, sim] : id_map.pairs()) {

@@ -1,6 +1,6 @@
 // yamord's settings (thesis C.1): listen address, backend, world and
 // configuration opened at start, Evaluate workers, id mapping, master node,
-// LED tracker address. Read from a TOML file; command-line flags override.
+// LED tracker address, recording file. Read from a TOML file; command-line flags override.
 #pragma once
 
 #include <cstdint>
@@ -35,6 +35,7 @@ struct Settings {
   double link_timeout = 2.0;           ///< ConnectRobot per-link timeout [s].
   double free_run = 0.0;               ///< Free-run real-time factor at start; 0 = off.
   uint64_t seed = 0;                   ///< Seed of the world opened at start.
+  std::string record;  ///< Recorded-session file (docs/snp.md) every SNP frame goes to; "" = none.
 };
 
 /// Parses TOML settings; keys not set keep their defaults. INVALID_ARGUMENT

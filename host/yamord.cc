@@ -7,6 +7,9 @@
 //   yamord --settings /etc/yamor/yamord.toml --print-config
 //   yamord --backend serial --device /dev/rfcomm0          # a real robot
 //   yamord --backend serial --device tcp://simhost:2223    # yamor-bridge --tcp
+//   yamord --record session.rec             # every SNP frame both ways, timed
+//                                           # (docs/snp.md "Recorded sessions";
+//                                           # replay: yamor-bridge --replay)
 //
 // SIGTERM / SIGINT: stop accepting calls, cancel long Sleeps and Evaluates,
 // drain in-flight calls (up to --drain-seconds), exit 0.
@@ -28,6 +31,7 @@
 #include "host/evaluator.h"
 #include "host/id_map.h"
 #include "host/serial_backend.h"
+#include "host/recording_backend.h"
 #include "host/service.h"
 #include "host/settings.h"
 #include "host/worlds.h"
@@ -86,6 +90,9 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   auto* free_run = app.add_option("--free-run", flags.free_run,
                                   "Free-run real-time factor at start (0 = off)");
   auto* seed = app.add_option("--seed", flags.seed, "Seed of the world opened at start");
+  auto* record = app.add_option("--record", flags.record,
+                                "Record every SNP frame both ways to FILE (docs/snp.md, "
+                                "\"Recorded sessions\"; replay with yamor-bridge --replay)");
   app.add_option("--drain-seconds", drain_seconds, "Grace period for in-flight calls on SIGTERM");
   app.add_flag("--print-config", print_config, "Print the effective settings as TOML and exit");
   try {
@@ -116,6 +123,7 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   if (link_timeout->count()) settings.link_timeout = flags.link_timeout;
   if (free_run->count()) settings.free_run = flags.free_run;
   if (seed->count()) settings.seed = flags.seed;
+  if (record->count()) settings.record = flags.record;
   ValidateSettings(settings);
   if (print_config) {
     std::cout << SettingsToToml(settings);
@@ -136,6 +144,19 @@ int Run(int argc, char** argv, const sigset_t& signals) {
                                .master = settings.master,
                                .link_timeout = settings.link_timeout,
                                .reply_timeout = settings.reply_timeout};
+  if (!settings.record.empty()) {
+    // One file for the daemon's life; each backend the driver opens (the
+    // world at start, every OpenSimulation) starts a session in it.
+    auto writer = std::make_shared<snp::RecordingWriter>(
+        settings.record, snp::RecordAttributes{{"backend", settings.backend},
+                                               {"program", "yamord " YAMOR_VERSION}});
+    driver_options.backend_wrapper = [writer](std::unique_ptr<Backend> inner,
+                                              const snp::RecordAttributes& attributes)
+        -> std::unique_ptr<Backend> {
+      return std::make_unique<RecordingBackend>(std::move(inner), writer, attributes);
+    };
+    Log().info("recording every SNP frame to {}", settings.record);
+  }
   RobotDriver driver(driver_options, *robot_config);
   // The world stays the default of the stateless Evaluate workers either way.
   auto default_morphology = std::make_shared<const physics::Morphology>(resolved.morphology);

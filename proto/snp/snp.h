@@ -6,3 +6,4 @@
 #include "proto/snp/frame.h"
 #include "proto/snp/message_type.h"
 #include "proto/snp/messages.h"
+#include "proto/snp/recording.h"

@@ -33,6 +33,8 @@ TEST(SettingsTest, DefaultsAreTheThesisDaemon) {
   EXPECT_DOUBLE_EQ(s.reply_timeout, 1.0);
   EXPECT_EQ(s.workers, 0u);
   EXPECT_FALSE(s.master.has_value());
+  EXPECT_EQ(s.record, "") << "no recording unless asked";
+  EXPECT_EQ(ParseSettingsToml(SettingsToToml(s), "d").record, "");
   EXPECT_NO_THROW(ValidateSettings(s));
 }
 
@@ -58,6 +60,7 @@ max_concurrent_calls = 8
 link_timeout = 0.5
 free_run = 1.0
 seed = 99
+record = "/var/log/yamor/session 1.rec"
 [id_map]
 0 = 10
 10 = 0
@@ -90,6 +93,7 @@ seed = 99
   EXPECT_DOUBLE_EQ(s.link_timeout, 0.5);
   EXPECT_DOUBLE_EQ(s.free_run, 1.0);
   EXPECT_EQ(s.seed, 99u);
+  EXPECT_EQ(s.record, "/var/log/yamor/session 1.rec");
   EXPECT_EQ(ParseIdMap(s.id_map).ToSim(10), 0);
 
   const Settings again = ParseSettingsToml(SettingsToToml(s), "printed");
@@ -99,6 +103,7 @@ seed = 99
   EXPECT_EQ(again.device, s.device);
   EXPECT_EQ(again.parity, s.parity);
   EXPECT_DOUBLE_EQ(again.reply_timeout, s.reply_timeout);
+  EXPECT_EQ(again.record, s.record);
   EXPECT_EQ(SettingsToToml(ParseSettingsToml(SettingsToToml(Settings()), "d")),
             SettingsToToml(Settings()));
 }
@@ -128,6 +133,7 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
       {"listen = \"nowhere\"\n", "is not ADDR:PORT"},
       {"log_level = \"loud\"\n", "log_level 'loud'"},
       {"link_timeout = 0\n", "link_timeout"},
+      {"\nrecord = 5\n", "test.toml:2: record must be a string"},
       {"[id_map]\n1 = 5\n2 = 5\n", "both map to simulation id 5"},
   };
   for (const Case& c : cases) {
