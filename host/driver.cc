@@ -1061,13 +1061,27 @@ void RobotDriver::FreeRunLoop() {
     debt = std::min(debt + wall * free_run_factor_, 0.25 * free_run_factor_ + time_step_);
     const double steps = std::floor(debt / time_step_);
     if (steps < 1.0) continue;
+    // A background thread catches everything and leaves the daemon serving:
+    // a diverged world idles until reset (diverged_ is set and reported);
+    // anything else stops free-run and says why in WatchState.
+    std::string stopped;
     try {
       const double before = sim_time_;
       StepLocked(steps * time_step_);
       debt -= sim_time_ - before;
     } catch (const Error& e) {
-      Log().warn("free-run: {}", e.what());
+      if (!diverged_) stopped = e.what();
       debt = 0.0;
+    } catch (const std::exception& e) {
+      stopped = std::string("internal error: ") + e.what();
+    } catch (...) {
+      stopped = "internal error: unknown exception";
+    }
+    if (!stopped.empty()) {
+      Log().error("free-run stopped: {}", stopped);
+      free_run_factor_ = 0.0;
+      debt = 0.0;
+      PushEvent(StateEvent{.kind = "free_run_stopped", .detail = stopped});
     }
   }
 }

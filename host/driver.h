@@ -271,7 +271,8 @@ class RobotDriver {
   void RunTransformationScript(std::string_view xml, const CancelCheck& cancel);
   /// Free-run mode: a background thread steps the simulation at
   /// `real_time_factor` simulated seconds per wall second (0 = off,
-  /// OUT_OF_RANGE outside [0, 100]).
+  /// OUT_OF_RANGE outside [0, 100]). A diverged world idles until reset; any
+  /// other failure stops free-run with a "free_run_stopped" WatchState event.
   void SetFreeRun(double real_time_factor);
 
   // ---- State stream -----------------------------------------------------

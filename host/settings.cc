@@ -121,6 +121,8 @@ Settings ParseSettingsToml(std::string_view text, std::string_view source) {
       s.max_concurrent_calls = static_cast<unsigned>(GetInteger(source, node, key, 1, 100000));
     } else if (key == "link_timeout") {
       s.link_timeout = GetNumber(source, node, key);
+    } else if (key == "link_retries") {
+      s.link_retries = static_cast<int>(GetInteger(source, node, key, 0, 10));
     } else if (key == "free_run") {
       s.free_run = GetNumber(source, node, key);
     } else if (key == "record") {
@@ -179,6 +181,10 @@ void ValidateSettings(const Settings& s) {
   if (!(s.link_timeout > 0.0 && s.link_timeout <= 120.0)) {
     throw Error(StatusCode::kOutOfRange, "link_timeout must be in (0, 120] s");
   }
+  if (s.link_retries < 0 || s.link_retries > 10) {
+    throw Error(StatusCode::kOutOfRange,
+                "link_retries " + std::to_string(s.link_retries) + " is outside 0..10");
+  }
   if (!(s.free_run >= 0.0 && s.free_run <= 100.0)) {
     throw Error(StatusCode::kOutOfRange, "free_run must be in [0, 100]");
   }
@@ -232,6 +238,7 @@ std::string SettingsToToml(const Settings& s) {
   out << "log_level = " << Quote(s.log_level) << "\n";
   out << "max_concurrent_calls = " << s.max_concurrent_calls << "\n";
   out << "link_timeout = " << toml::value<double>(s.link_timeout) << "\n";
+  out << "link_retries = " << s.link_retries << "\n";
   out << "free_run = " << toml::value<double>(s.free_run) << "\n";
   out << "seed = " << s.seed << "\n";
   out << "record = " << Quote(s.record) << "  # \"\" = no recording of SNP frames\n";

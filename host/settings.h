@@ -33,6 +33,7 @@ struct Settings {
   std::string log_level = "info";      ///< trace, debug, info, warn, error, critical, off.
   unsigned max_concurrent_calls = 64;  ///< Calls served at once; more get RESOURCE_EXHAUSTED.
   double link_timeout = 2.0;           ///< ConnectRobot per-link timeout [s].
+  int link_retries = 2;                ///< ConnectRobot retries of a link that missed (0..10).
   double free_run = 0.0;               ///< Free-run real-time factor at start; 0 = off.
   uint64_t seed = 0;                   ///< Seed of the world opened at start.
   std::string record;  ///< Recorded-session file (docs/snp.md) every SNP frame goes to; "" = none.

@@ -87,6 +87,8 @@ int Run(int argc, char** argv, const sigset_t& signals) {
                                "Calls served at once; more get RESOURCE_EXHAUSTED");
   auto* link_timeout = app.add_option("--link-timeout", flags.link_timeout,
                                       "ConnectRobot per-link timeout [s]");
+  auto* link_retries = app.add_option("--link-retries", flags.link_retries,
+                                      "ConnectRobot retries of a link that timed out or failed");
   auto* free_run = app.add_option("--free-run", flags.free_run,
                                   "Free-run real-time factor at start (0 = off)");
   auto* seed = app.add_option("--seed", flags.seed, "Seed of the world opened at start");
@@ -121,6 +123,7 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   if (level->count()) settings.log_level = flags.log_level;
   if (calls->count()) settings.max_concurrent_calls = flags.max_concurrent_calls;
   if (link_timeout->count()) settings.link_timeout = flags.link_timeout;
+  if (link_retries->count()) settings.link_retries = flags.link_retries;
   if (free_run->count()) settings.free_run = flags.free_run;
   if (seed->count()) settings.seed = flags.seed;
   if (record->count()) settings.record = flags.record;
@@ -143,6 +146,7 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   DriverOptions driver_options{.id_map = ParseIdMap(settings.id_map),
                                .master = settings.master,
                                .link_timeout = settings.link_timeout,
+                               .link_retries = settings.link_retries,
                                .reply_timeout = settings.reply_timeout};
   if (!settings.record.empty()) {
     // One file for the daemon's life; each backend the driver opens (the

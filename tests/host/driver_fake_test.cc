@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <stdexcept>
 #include <thread>
 
 #include "common/status.h"
@@ -258,6 +259,40 @@ TEST_F(DriverFakeTest, AReopenedLinkFailsTheCallAndRefreshRelinksAndRestoresTheR
       << "the configuration survives the loss";
   EXPECT_EQ(driver_->PendingChanges(), 0) << "Refresh sent everything";
   EXPECT_EQ(CodeOf([&] { driver_->Flush(); }), StatusCode::kOk);
+}
+
+TEST_F(DriverFakeTest, FreeRunSurvivesAnyExceptionStopsAndSaysWhy) {
+  for (const bool yamor_error : {true, false}) {
+    FakeBackend* fake = Attach(true, {}, QuadrupedConfig());
+    WatchCursor cursor = driver_->BeginWatch();
+    fake->on_send = [yamor_error](const snp::Frame& f) {
+      if (f.type != snp::MessageType::kStep) return;
+      if (yamor_error) throw Error(StatusCode::kUnavailable, "the link went away");
+      throw std::runtime_error("something unexpected");
+    };
+    driver_->SetFreeRun(1.0);
+    bool stopped = false;
+    std::string detail;
+    for (int i = 0; i < 200 && !stopped; ++i) {
+      if (auto update = driver_->WaitForState(cursor, 0.0, std::chrono::milliseconds(50))) {
+        for (const StateEvent& e : update->events) {
+          if (e.kind == "free_run_stopped") {
+            stopped = true;
+            detail = e.detail;
+          }
+        }
+      }
+    }
+    driver_->EndWatch();
+    EXPECT_TRUE(stopped) << "a free_run_stopped event";
+    EXPECT_NE(detail.find(yamor_error ? "the link went away" : "something unexpected"),
+              std::string::npos)
+        << detail;
+    EXPECT_EQ(driver_->Info().free_run_factor, 0.0);
+    fake->on_send = nullptr;
+    EXPECT_EQ(CodeOf([&] { driver_->Sleep(0.1, false, nullptr); }), StatusCode::kOk)
+        << "the driver keeps serving";
+  }
 }
 
 TEST_F(DriverFakeTest, ConnectRobotRefusesATreeNotRootedAtTheMasterSetting) {

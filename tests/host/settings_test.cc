@@ -58,6 +58,7 @@ led_tracker = "camapp:5000"
 log_level = "debug"
 max_concurrent_calls = 8
 link_timeout = 0.5
+link_retries = 4
 free_run = 1.0
 seed = 99
 record = "/var/log/yamor/session 1.rec"
@@ -91,6 +92,7 @@ record = "/var/log/yamor/session 1.rec"
   EXPECT_EQ(s.log_level, "debug");
   EXPECT_EQ(s.max_concurrent_calls, 8u);
   EXPECT_DOUBLE_EQ(s.link_timeout, 0.5);
+  EXPECT_EQ(s.link_retries, 4);
   EXPECT_DOUBLE_EQ(s.free_run, 1.0);
   EXPECT_EQ(s.seed, 99u);
   EXPECT_EQ(s.record, "/var/log/yamor/session 1.rec");
@@ -133,6 +135,7 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
       {"listen = \"nowhere\"\n", "is not ADDR:PORT"},
       {"log_level = \"loud\"\n", "log_level 'loud'"},
       {"link_timeout = 0\n", "link_timeout"},
+      {"link_retries = 11\n", "link_retries"},
       {"\nrecord = 5\n", "test.toml:2: record must be a string"},
       {"[id_map]\n1 = 5\n2 = 5\n", "both map to simulation id 5"},
   };
