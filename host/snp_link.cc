@@ -147,8 +147,15 @@ snp::Message SnpLink::ModuleCall(int id, const snp::Message& message, snp::Messa
 }
 
 snp::Message SnpLink::BridgeRequest(const snp::Message& message, snp::MessageType reply) {
-  const snp::MessageType type = snp::TypeOf(message);
+  SendBridgeCommand(message);
+  return AwaitBridgeReply(snp::TypeOf(message), reply);
+}
+
+void SnpLink::SendBridgeCommand(const snp::Message& message) {
   SendFrame(snp::MakeFrame(Address::Host(), Address::Bridge(), ToWire(message)));
+}
+
+snp::Message SnpLink::AwaitBridgeReply(snp::MessageType type, snp::MessageType reply) {
   const Clock::time_point deadline = Clock::now() + ToMillis(options_.reply_timeout);
   while (true) {
     std::optional<snp::Frame> frame = backend_->Receive(Remaining(deadline));
@@ -202,13 +209,33 @@ void SnpLink::Configure(const cpg::RobotConfig& config) {
 }
 
 std::string SnpLink::ReadMorphologyXml() {
+  // The first read takes the snapshot and tells its size; the rest are
+  // pipelined, kWindow requests ahead, so a slow line never idles between
+  // chunks (the bridge answers in order).
+  constexpr uint32_t kWindow = 4;
+  constexpr auto kChunk = static_cast<uint32_t>(snp::kMaxMorphologyChunkSize);
+  auto request = [](uint32_t offset) {
+    return snp::ReadMorphology{.offset = offset, .length = static_cast<uint8_t>(kChunk)};
+  };
   std::string xml;
   uint32_t total = 0;
+  uint32_t next_offset = 0;  // of the next request to send
+  uint32_t in_flight = 0;
   do {
-    const snp::Message m = BridgeRequest(
-        snp::ReadMorphology{.offset = static_cast<uint32_t>(xml.size()),
-                            .length = static_cast<uint8_t>(snp::kMaxMorphologyChunkSize)},
-        snp::MessageType::kMorphologyChunk);
+    if (next_offset == 0) {
+      SendBridgeCommand(request(0));
+      next_offset = kChunk;
+      in_flight = 1;
+    } else {
+      while (in_flight < kWindow && next_offset < total) {
+        SendBridgeCommand(request(next_offset));
+        next_offset += kChunk;
+        ++in_flight;
+      }
+    }
+    const snp::Message m =
+        AwaitBridgeReply(snp::MessageType::kReadMorphology, snp::MessageType::kMorphologyChunk);
+    --in_flight;
     const auto& chunk = std::get<snp::MorphologyChunk>(m);
     if (!xml.empty() && chunk.total != total) {
       throw Error(StatusCode::kInternal, "ReadMorphology: the snapshot size changed");

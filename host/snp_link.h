@@ -68,11 +68,15 @@ class SnpLink {
   /// a refusal throws the module's code, a failed link INVALID_ARGUMENT, a
   /// missing answer UNAVAILABLE.
   void Configure(const cpg::RobotConfig& config);
-  /// The current morphology XML, read with chunked ReadMorphology specials.
+  /// The current morphology XML, read with chunked ReadMorphology specials
+  /// (pipelined: up to 4 requests in flight).
   std::string ReadMorphologyXml();
 
  private:
   void Unsolicited(const snp::Frame& frame);
+  // BridgeRequest in two halves, for pipelined reads.
+  void SendBridgeCommand(const snp::Message& message);
+  snp::Message AwaitBridgeReply(snp::MessageType command, snp::MessageType reply);
   // Sends one frame; throws UNAVAILABLE when it went out on a reopened link.
   void SendFrame(const snp::Frame& frame);
 

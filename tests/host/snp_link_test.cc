@@ -8,6 +8,7 @@
 #include "bridge/robot.h"
 #include "common/status.h"
 #include "host/sim_backend.h"
+#include "host/worlds.h"
 #include "physics/world.h"
 #include "tests/host/test_util.h"
 
@@ -24,6 +25,40 @@ TEST(SnpLinkTest, MorphologyReadbackIsTheCurrentMorphologyAcrossChunks) {
   const std::string after = link.ReadMorphologyXml();
   EXPECT_NE(after, xml);
   EXPECT_EQ(after, backend.robot().world().CurrentMorphology().ToXml());
+}
+
+TEST(SnpLinkTest, PipelinedReadbackOfEveryBuiltInWorldIsExactAndLeavesNothingBehind) {
+  std::size_t largest = 0;
+  for (const char* name : {"dog", "quadruped", "snake", "trebuchet", "tripod", "wheel"}) {
+    SimBackend backend(ResolveWorld(WorldRequest{.world = name}, "quadruped", false).morphology,
+                       bridge::RobotOptions{});
+    SnpLink link(backend, IdMap());
+    int unsolicited = 0;
+    link.SetUnsolicitedHandler([&](const snp::Frame&) { ++unsolicited; });
+    const std::string xml = link.ReadMorphologyXml();
+    EXPECT_EQ(xml, backend.robot().world().CurrentMorphology().ToXml()) << name;
+    EXPECT_EQ(link.ReadMorphologyXml(), xml) << name << ": read twice, same text";
+    const snp::Message time =
+        link.BridgeRequest(snp::GetSimTime{}, snp::MessageType::kSimTime);
+    EXPECT_EQ(std::get<snp::SimTime>(time).seconds, 0.0);
+    EXPECT_EQ(unsolicited, 0) << name << ": no reply left over from the pipelined reads";
+    largest = std::max(largest, xml.size());
+  }
+  EXPECT_GT(largest, snp::kMaxMorphologyChunkSize);
+
+  // A 40-module snake needs many more chunks than the window (4 in flight).
+  std::string snake = "<morphology central=\"0\">";
+  for (int i = 0; i < 40; ++i) snake += "<module id=\"" + std::to_string(i) + "\"/>";
+  for (int i = 1; i < 40; ++i) {
+    snake += "<connect idfrom=\"" + std::to_string(i) + "\" connfrom=\"front\" idto=\"" +
+             std::to_string(i - 1) + "\" connto=\"rear\" angle=\"0\"/>";
+  }
+  snake += "</morphology>";
+  SimBackend backend(physics::Morphology::Parse(snake, "snake40"), bridge::RobotOptions{});
+  SnpLink link(backend, IdMap());
+  const std::string xml = link.ReadMorphologyXml();
+  EXPECT_GT(xml.size(), 8 * snp::kMaxMorphologyChunkSize);
+  EXPECT_EQ(xml, backend.robot().world().CurrentMorphology().ToXml());
 }
 
 TEST(SnpLinkTest, SpecialsReachTheSimulationWithMappedIds) {
