@@ -689,19 +689,36 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   out.key = MorphologyKey(graph);
   out.network = BuildNetwork(graph, options.network);
   if (base != nullptr) {
-    // The base's couplings between two oscillators of the network are kept
-    // even where the body gives none (docs/cpg_build.md, "The base is the
-    // start point").
-    std::set<ModuleId> oscillators(out.network.oscillators.begin(), out.network.oscillators.end());
+    // A coupling of the base between two oscillators that the body connects,
+    // directly or across passive modules only, is kept even where the
+    // construction rule gives none (docs/cpg_build.md, "The base is the start
+    // point"). One between modules the body no longer connects is dropped: the
+    // network follows the body (thesis 7.4).
+    const std::set<ModuleId> oscillators(out.network.oscillators.begin(), out.network.oscillators.end());
+    const std::set<ModuleId> in_piece(out.network.piece.begin(), out.network.piece.end());
+    auto connected_across_passive = [&](ModuleId from, ModuleId to) {
+      std::set<ModuleId> seen{from};
+      std::deque<ModuleId> todo{from};
+      while (!todo.empty()) {
+        const ModuleId at = todo.front();
+        todo.pop_front();
+        for (ModuleId n : graph.Neighbours(at)) {
+          if (n == to) return true;
+          if (!in_piece.count(n) || oscillators.count(n) || !seen.insert(n).second) continue;
+          todo.push_back(n);
+        }
+      }
+      return false;
+    };
     for (const Coupling& c : base->couplings) {
       if (!oscillators.count(c.from) || !oscillators.count(c.to) || c.from == c.to ||
-          out.network.FindEdge(c.from, c.to) != nullptr) {
+          out.network.FindEdge(c.from, c.to) != nullptr || !connected_across_passive(c.from, c.to)) {
         continue;
       }
       const auto [u, v] = std::minmax(c.from, c.to);
       out.network.edges.push_back({.u = u, .v = v, .physical = false, .from_base = true});
       out.notes.push_back("coupling " + Id(u) + "-" + Id(v) +
-                          " is not given by the body but by the base configuration; it is kept");
+                          " is not one the construction rule gives but the base configuration's; it is kept");
     }
     std::sort(out.network.edges.begin(), out.network.edges.end(),
               [](const NetworkEdge& x, const NetworkEdge& y) { return std::pair{x.u, x.v} < std::pair{y.u, y.v}; });

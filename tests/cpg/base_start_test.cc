@@ -126,10 +126,32 @@ TEST(BaseStartTest, TransformedQuadrupedStartsAtTheQuadrupedsGait) {
   }
   const RobotConfig base = LoadConfigFile(kConfigs + "robots/quadruped.xml");
   const GeneratedProblem p = Generate(physics::Morphology::Parse(xml, "transformed.xml"), base);
-  // The couplings 2-7 and 3-8 are no longer physical edges but stay in the
-  // network with the quadruped's phases (the new knee-knee couplings 5-7 and
-  // 6-8 come on top); every module keeps the quadruped's values.
-  ExpectStartIsBase(p, base, /*all_couplings=*/true);
+  // The body no longer connects 2 with 7 or 3 with 8: those couplings leave
+  // the network (it follows the body), the knee-knee couplings 5-7 and 6-8
+  // come in; every module and every surviving coupling keeps the quadruped's
+  // values.
+  EXPECT_EQ(p.network.FindEdge(2, 7), nullptr);
+  EXPECT_EQ(p.network.FindEdge(3, 8), nullptr);
+  EXPECT_NE(p.network.FindEdge(5, 7), nullptr);
+  ExpectStartIsBase(p, base, /*all_couplings=*/false);
+}
+
+TEST(BaseStartTest, ABaseCouplingAcrossPassiveModulesIsKept) {
+  // The tripod's hips 1 and 2 sit on opposite faces of the passive module 0;
+  // the construction rule couples them only through 3, the base couples them
+  // directly, so the network keeps 1-2.
+  const RobotConfig base = LoadConfigFile(kConfigs + "robots/tripod.xml");
+  const physics::Morphology body = physics::Morphology::LoadFile(kConfigs + "worlds/tripod.xml");
+  ASSERT_NE(base.FindCoupling(1, 2), nullptr);
+  const GeneratedProblem p = Generate(body, base);
+  const NetworkEdge* kept = p.network.FindEdge(1, 2);
+  ASSERT_NE(kept, nullptr);
+  EXPECT_TRUE(kept->from_base);
+  std::vector<int> ids;
+  for (const auto& m : body.modules()) ids.push_back(m.id);
+  EXPECT_EQ(GenerateProblem(physics::ModuleGraphOf(body, ActivityFromConfig(base, ids)), nullptr)
+                .network.FindEdge(1, 2),
+            nullptr);
 }
 
 TEST(BaseStartTest, ATieTheBaseContradictsIsNotImposedAndOneItKeepsIs) {
