@@ -319,7 +319,8 @@ PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vect
           best = cls;
           continue;
         }
-        // Prefer constraining non-tree, small, late classes.
+        // Prefer constraining classes the base does not give, then non-tree,
+        // small, late classes.
         auto score = [&](int k) { return std::tuple{base_class[k], tree_class[k], class_size(k), -k}; };
         if (score(cls) < score(best)) best = cls;
       }
