@@ -31,6 +31,7 @@ struct NetworkEdge {
   ModuleId v = 0;          ///< Larger id.
   bool physical = true;    ///< A physical connection, or across passive modules.
   ModuleId via = -1;       ///< The passive module crossed (the smallest, for a passive piece).
+  bool from_base = false;  ///< Not from the body: a coupling the base configuration has.
 
   friend bool operator==(const NetworkEdge&, const NetworkEdge&) = default;
 };

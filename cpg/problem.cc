@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -18,6 +19,40 @@ namespace yamor::cpg {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
+// Base values closer than this are the same value (they are read from decimal
+// text, so equal texts give equal doubles; the margin only absorbs rounding).
+constexpr double kSameValue = 1e-9;
+
+// The distance between two angles on the circle, in [0, π].
+double AngleGap(double a, double b) { return std::abs(std::remainder(a - b, 2 * kPi)); }
+
+// Splits `items` into groups whose known values agree (`same`), in the order
+// the values first appear; items with no value join the first group.
+template <typename T>
+std::vector<std::vector<T>> SplitByValue(const std::vector<T>& items,
+                                         const std::function<std::optional<double>(const T&)>& value,
+                                         const std::function<bool(double, double)>& same) {
+  std::vector<std::vector<T>> groups;
+  std::vector<double> values;
+  std::vector<T> unknown;
+  for (const T& x : items) {
+    const std::optional<double> v = value(x);
+    if (!v) {
+      unknown.push_back(x);
+      continue;
+    }
+    size_t g = 0;
+    while (g < values.size() && !same(values[g], *v)) ++g;
+    if (g == values.size()) {
+      values.push_back(*v);
+      groups.emplace_back();
+    }
+    groups[g].push_back(x);
+  }
+  if (groups.empty()) groups.emplace_back();
+  groups.front().insert(groups.front().end(), unknown.begin(), unknown.end());
+  return groups;
+}
 
 std::string Id(ModuleId id) { return std::to_string(id); }
 std::string PhaseName(ModuleId from, ModuleId to) { return "phase." + Id(from) + "." + Id(to); }
@@ -90,8 +125,12 @@ struct PhaseSolution {
   std::vector<std::string> untied;   // classes split apart, with the reason
 };
 
+// `base_edge` (empty or one flag per edge): edges whose phase the base
+// configuration gives; a loop constrains a class without such edges first,
+// so the base's phases stay where the base puts them.
 PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vector<NetworkEdge>& edges,
-                          std::vector<EdgeTie> ties, const std::set<int>& keep_free) {
+                          std::vector<EdgeTie> ties, const std::set<int>& keep_free,
+                          const std::vector<bool>& base_edge = {}) {
   const int m = static_cast<int>(edges.size());
   PhaseSolution sol;
   // Spanning tree: keep-free edges first, then in (u, v) order.
@@ -239,9 +278,10 @@ PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vect
       for (const EdgeTie& t : ties) k = std::max(k, t.cls + 1);
       return k;
     }();
-    std::vector<bool> tree_class(classes, false), keep_class(classes, false);
+    std::vector<bool> tree_class(classes, false), keep_class(classes, false), base_class(classes, false);
     for (int e = 0; e < m; ++e) {
       if (in_tree[e]) tree_class[ties[e].cls] = true;
+      if (!base_edge.empty() && base_edge[e]) base_class[ties[e].cls] = true;
       if (keep_free.count(e)) keep_class[ties[e].cls] = true;
     }
     std::map<int, Row> pivots;
@@ -279,8 +319,9 @@ PhaseSolution SolvePhases(const std::vector<ModuleId>& vertices, const std::vect
           best = cls;
           continue;
         }
-        // Prefer constraining non-tree, small, late classes.
-        auto score = [&](int k) { return std::tuple{tree_class[k], class_size(k), -k}; };
+        // Prefer constraining classes the base does not give, then non-tree,
+        // small, late classes.
+        auto score = [&](int k) { return std::tuple{base_class[k], tree_class[k], class_size(k), -k}; };
         if (score(cls) < score(best)) best = cls;
       }
       if (best < 0) {
@@ -350,14 +391,56 @@ std::string Term(int coef, const std::string& name, bool first) {
   return s + name + "()";
 }
 
-std::vector<TiedParameter> PhaseRules(const PhaseSolution& sol, const std::vector<NetworkEdge>& edges) {
+// The base configuration's phases per network edge u-v (u < v): u -> v and
+// v -> u, where the base configures them.
+struct BasePhases {
+  std::vector<std::optional<double>> forward;
+  std::vector<std::optional<double>> backward;
+};
+
+// " + 0.25" or " - 0.25": a constant term of a rule.
+std::string Constant(double c) {
+  return (c < 0 ? " - " : " + ") + FormatDouble(std::abs(c));
+}
+
+// The constrain rules of a solved system. With `base`, a loop whose phases
+// the base configures keeps the base's sum (zero, unless the base's phases do
+// not close it; then `notes` says so), so the base is a point of the problem.
+std::vector<TiedParameter> PhaseRules(const PhaseSolution& sol, const std::vector<NetworkEdge>& edges,
+                                      const BasePhases* base = nullptr,
+                                      std::vector<std::string>* notes = nullptr) {
   const auto names = ClassNames(sol, edges);
+  // Base value of each class variable: y = sign·(x_e − pi·π) of any of its
+  // configured edges (base ties agree, GenerateProblem splits them otherwise).
+  std::map<int, double> class_base;
+  if (base != nullptr) {
+    for (int e = 0; e < static_cast<int>(edges.size()); ++e) {
+      const EdgeTie& t = sol.ties[e];
+      if (base->forward[e] && !class_base.count(t.cls)) {
+        class_base[t.cls] = t.sign * (*base->forward[e] - t.pi * kPi);
+      }
+    }
+  }
   std::vector<TiedParameter> rules;
   for (const auto& [cls, expr] : sol.pivots) {
-    // y ≡ Σ a·y_j + pi·π, so y = M2Pi(Σ (-a)·y_j + pi·π).
+    // y ≡ Σ a·y_j + pi·π (+ r, the base's sum), so y = M2Pi(Σ (-a)·y_j + pi·π − r).
     std::string body;
     for (const auto& [j, a] : expr.coef) body += Term(-a, names[j], body.empty());
     if (expr.pi) body += " + pi";
+    bool known = class_base.count(cls) > 0;
+    double sum = known ? class_base[cls] - expr.pi * kPi : 0;
+    for (const auto& [j, a] : expr.coef) {
+      known = known && class_base.count(j) > 0;
+      if (known) sum -= a * class_base[j];
+    }
+    if (known && AngleGap(sum, 0) > kSameValue) {
+      const double r = std::remainder(sum, 2 * kPi);
+      body += Constant(-r);
+      if (notes) {
+        notes->push_back("the base configuration's phases do not close a loop through " + names[cls] +
+                         " (off by " + FormatDouble(r) + " rad); the rule keeps that sum");
+      }
+    }
     rules.push_back({names[cls], "M2Pi(" + body + ")"});
   }
   for (int e = 0; e < static_cast<int>(edges.size()); ++e) {
@@ -370,7 +453,22 @@ std::vector<TiedParameter> PhaseRules(const PhaseSolution& sol, const std::vecto
       rules.push_back({own, expr});
     }
   }
-  for (const NetworkEdge& e : edges) rules.push_back({PhaseName(e.v, e.u), "-" + PhaseName(e.u, e.v) + "()"});
+  for (int e = 0; e < static_cast<int>(edges.size()); ++e) {
+    const NetworkEdge& ne = edges[e];
+    const std::string back = PhaseName(ne.v, ne.u), fwd = PhaseName(ne.u, ne.v);
+    // Both directions of an edge form a loop: x_vu ≡ −x_uv (+ the base's sum).
+    if (base != nullptr && base->forward[e] && base->backward[e] &&
+        AngleGap(*base->forward[e] + *base->backward[e], 0) > kSameValue) {
+      const double r = std::remainder(*base->forward[e] + *base->backward[e], 2 * kPi);
+      rules.push_back({back, "M2Pi(" + fwd + "()" + Constant(-r) + ")"});
+      if (notes) {
+        notes->push_back("the base configuration's couplings " + EdgeName(ne) + " are not opposite (" + fwd +
+                         " + " + back + " = " + FormatDouble(r) + " rad); the rule keeps that sum");
+      }
+      continue;
+    }
+    rules.push_back({back, "-" + fwd + "()"});
+  }
   return rules;
 }
 
@@ -591,6 +689,41 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   out.graph_text = graph.Describe();
   out.key = MorphologyKey(graph);
   out.network = BuildNetwork(graph, options.network);
+  if (base != nullptr) {
+    // A coupling of the base between two oscillators that the body connects,
+    // directly or across passive modules only, is kept even where the
+    // construction rule gives none (docs/cpg_build.md, "The base is the start
+    // point"). One between modules the body no longer connects is dropped: the
+    // network follows the body (thesis 7.4).
+    const std::set<ModuleId> oscillators(out.network.oscillators.begin(), out.network.oscillators.end());
+    const std::set<ModuleId> in_piece(out.network.piece.begin(), out.network.piece.end());
+    auto connected_across_passive = [&](ModuleId from, ModuleId to) {
+      std::set<ModuleId> seen{from};
+      std::deque<ModuleId> todo{from};
+      while (!todo.empty()) {
+        const ModuleId at = todo.front();
+        todo.pop_front();
+        for (ModuleId n : graph.Neighbours(at)) {
+          if (n == to) return true;
+          if (!in_piece.count(n) || oscillators.count(n) || !seen.insert(n).second) continue;
+          todo.push_back(n);
+        }
+      }
+      return false;
+    };
+    for (const Coupling& c : base->couplings) {
+      if (!oscillators.count(c.from) || !oscillators.count(c.to) || c.from == c.to ||
+          out.network.FindEdge(c.from, c.to) != nullptr || !connected_across_passive(c.from, c.to)) {
+        continue;
+      }
+      const auto [u, v] = std::minmax(c.from, c.to);
+      out.network.edges.push_back({.u = u, .v = v, .physical = false, .from_base = true});
+      out.notes.push_back("coupling " + Id(u) + "-" + Id(v) +
+                          " is not one the construction rule gives but the base configuration's; it is kept");
+    }
+    std::sort(out.network.edges.begin(), out.network.edges.end(),
+              [](const NetworkEdge& x, const NetworkEdge& y) { return std::pair{x.u, x.v} < std::pair{y.u, y.v}; });
+  }
   const CpgNetwork& net = out.network;
   if (!net.ignored.empty()) {
     out.notes.push_back("modules" + SpacedIds(net.ignored) + " are not connected to the largest piece and are ignored");
@@ -667,16 +800,112 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
       ties[e] = {.cls = 2 * m + e};
     }
   }
+
+  // The base configuration is a point of the problem (docs/cpg_build.md,
+  // "The base is the start point"): a tie is imposed only among modules or
+  // couplings whose base values satisfy it; the others are split apart.
+  RobotConfig empty;
+  empty.master_id = graph.central();
+  const RobotConfig& from = base ? *base : empty;
+  BasePhases base_phases;
+  for (const NetworkEdge& ne : net.edges) {
+    const Coupling* f = from.FindCoupling(ne.u, ne.v);
+    const Coupling* b = from.FindCoupling(ne.v, ne.u);
+    base_phases.forward.push_back(f ? std::optional(f->phase) : b ? std::optional(-b->phase) : std::nullopt);
+    base_phases.backward.push_back(b ? std::optional(b->phase) : std::nullopt);
+  }
+  const auto same_value = [](double a, double b) { return std::abs(a - b) <= kSameValue; };
+  {
+    std::map<ModuleId, std::vector<ModuleId>> split;
+    for (const auto& [rep, members] : amplitude_classes) {
+      auto groups = SplitByValue<ModuleId>(
+          members,
+          [&](const ModuleId& id) -> std::optional<double> {
+            const ModuleParams* p = from.FindModule(id);
+            return p ? std::optional(p->amplitude) : std::nullopt;
+          },
+          same_value);
+      for (auto& g : groups) std::sort(g.begin(), g.end());
+      if (groups.size() > 1) {
+        out.notes.push_back("module(s)" + SpacedIds(members) +
+                            " are symmetric but their base amplitudes differ; their amplitudes are not tied");
+      }
+      for (auto& g : groups) split[g.front()] = std::move(g);
+    }
+    amplitude_classes = std::move(split);
+  }
+  {
+    std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> split;
+    for (const auto& [rep, members] : offset_classes) {
+      auto groups = SplitByValue<std::pair<ModuleId, int>>(
+          members,
+          [&](const std::pair<ModuleId, int>& x) -> std::optional<double> {
+            const ModuleParams* p = from.FindModule(x.first);
+            return p ? std::optional(x.second * p->offset) : std::nullopt;
+          },
+          same_value);
+      if (groups.size() > 1) {
+        std::vector<ModuleId> ids;
+        for (const auto& x : members) ids.push_back(x.first);
+        out.notes.push_back("module(s)" + SpacedIds(ids) +
+                            " are symmetric but their base offsets differ from the tie; their offsets are "
+                            "not tied");
+      }
+      for (auto& g : groups) {
+        std::sort(g.begin(), g.end());
+        const int rep_sign = g.front().second;
+        for (auto& x : g) x.second *= rep_sign;
+        split[g.front().first] = std::move(g);
+      }
+    }
+    offset_classes = std::move(split);
+  }
+  {
+    int next = 0;
+    for (const EdgeTie& t : ties) next = std::max(next, t.cls + 1);
+    std::map<int, std::vector<int>> classes;
+    for (int e = 0; e < m; ++e) classes[ties[e].cls].push_back(e);
+    for (const auto& [cls, edges] : classes) {
+      const auto groups = SplitByValue<int>(
+          edges,
+          [&](const int& e) -> std::optional<double> {
+            const auto& x = base_phases.forward[e];
+            return x ? std::optional(ties[e].sign * (*x - ties[e].pi * kPi)) : std::nullopt;
+          },
+          [](double a, double b) { return AngleGap(a, b) <= kSameValue; });
+      if (groups.size() < 2) continue;
+      std::string names;
+      for (int e : edges) names += " " + EdgeName(net.edges[e]);
+      out.notes.push_back("couplings" + names +
+                          " are symmetric but their base phases differ from the tie; they are not tied");
+      for (size_t g = 1; g < groups.size(); ++g) {
+        for (int e : groups[g]) ties[e].cls = next;
+        ++next;
+      }
+    }
+  }
   Normalise(ties);
-  const PhaseSolution sol = SolvePhases(net.oscillators, net.edges, ties, keep_free);
+  std::vector<bool> base_edge(m);
+  for (int e = 0; e < m; ++e) base_edge[e] = base_phases.forward[e].has_value();
+  const PhaseSolution sol = SolvePhases(net.oscillators, net.edges, ties, keep_free, base_edge);
   out.loops = sol.loops;
   for (const std::string& u : sol.untied) out.notes.push_back(u);
 
   // The warm-started robot.
-  RobotConfig empty;
-  empty.master_id = graph.central();
-  const RobotConfig& from = base ? *base : empty;
   out.robot = WarmStart(graph, net, from, options);
+  // Start values the base does not give are clamped into their module's
+  // limits; the base's own values are kept as they are.
+  auto clamp_amplitude = [&](ModuleParams& p) {
+    if (!from.FindModule(p.id)) p.amplitude = std::clamp(p.amplitude, 0.0, AmplitudeMax(p));
+  };
+  auto clamp_offset = [&](ModuleParams& p) {
+    if (!from.FindModule(p.id)) p.offset = std::clamp(p.offset, p.min_angle, p.max_angle);
+  };
+  for (ModuleParams& p : out.robot.modules) {
+    if (!driven.count(p.id)) continue;
+    clamp_amplitude(p);
+    clamp_offset(p);
+  }
   // New modules take their orbit's values (offset and limits mirrored by
   // the servo sign).
   for (const auto& [rep, members] : offset_classes) {
@@ -722,14 +951,6 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     if (c.phase < 0) c.phase += 2 * kPi;
     if (c.phase >= 2 * kPi) c.phase = 0;
   }
-  auto clamp_start = [&](ModuleParams& p) {
-    p.amplitude = std::clamp(p.amplitude, 0.0, AmplitudeMax(p));
-    p.offset = std::clamp(p.offset, p.min_angle, p.max_angle);
-  };
-  for (ModuleParams& p : out.robot.modules) {
-    if (driven.count(p.id)) clamp_start(p);
-  }
-
   // Candidates: one amplitude per amplitude class, one offset per offset
   // class, one phase per free phase class.
   struct Candidate {
@@ -786,9 +1007,12 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   }
   // Ties amplitude classes with the same key into one each: the
   // representative is the group's smallest id, its bound the tightest.
-  auto merge_amplitudes = [&](const std::function<std::pair<double, double>(ModuleId)>& key,
+  // The key holds the start amplitude too: amplitudes the base configures
+  // differently are never tied (the base stays a point of the problem).
+  using AmplitudeKey = std::tuple<double, double, double>;
+  auto merge_amplitudes = [&](const std::function<AmplitudeKey(ModuleId)>& key,
                               const std::string& what) {
-    std::map<std::pair<double, double>, std::vector<ModuleId>> groups;  // key -> class reps
+    std::map<AmplitudeKey, std::vector<ModuleId>> groups;  // key -> class reps
     for (const auto& [rep, members] : amplitude_classes) groups[key(rep)].push_back(rep);
     if (groups.size() == amplitude_classes.size()) return;  // nothing to tie
     std::map<ModuleId, std::vector<ModuleId>> merged_classes;
@@ -816,10 +1040,11 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   if (total() > budget) {
     merge_amplitudes([&](ModuleId id) {
       const ModuleParams& p = *out.robot.FindModule(id);
-      return std::pair{p.min_angle, p.max_angle};
+      return AmplitudeKey{p.min_angle, p.max_angle, p.amplitude};
     }, "same limit angles");
   }
-  if (total() > budget) merge_amplitudes([](ModuleId) { return std::pair{0.0, 0.0}; }, "every driven module");
+  if (total() > budget) merge_amplitudes([&](ModuleId id) { return AmplitudeKey{0.0, 0.0, out.robot.FindModule(id)->amplitude}; },
+                     "every driven module");
   while (total() > budget && !phases.empty()) {
     fixed_params.push_back(phases.back().param.param);
     phases.pop_back();
@@ -829,17 +1054,32 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     amplitudes.pop_back();
   }
 
-  // Tied members start where their representative is.
+  // Tied members start where their representative is, or where the base
+  // puts the class (its configured members agree, the split above made sure);
+  // base_amplitudes and base_offsets hold the classes the base configures.
+  std::set<ModuleId> base_amplitudes, base_offsets;
   for (const auto& [rep, members] : amplitude_classes) {
-    const double a = out.robot.FindModule(rep)->amplitude;
+    const auto known = std::find_if(members.begin(), members.end(),
+                                    [&](ModuleId id) { return from.FindModule(id) != nullptr; });
+    const double a = out.robot.FindModule(known != members.end() ? *known : rep)->amplitude;
+    if (known != members.end()) base_amplitudes.insert(rep);
     for (ModuleId id : members) out.robot.FindModule(id)->amplitude = a;
   }
   for (const auto& [rep, members] : offset_classes) {
-    const double o = out.robot.FindModule(rep)->offset;
+    const auto known = std::find_if(members.begin(), members.end(),
+                                    [&](const auto& x) { return from.FindModule(x.first) != nullptr; });
+    const auto& [kid, ksign] = known != members.end() ? *known : members.front();
+    const double o = ksign * out.robot.FindModule(kid)->offset;  // the representative's offset
+    if (known != members.end()) base_offsets.insert(rep);
     for (const auto& [id, sign] : members) out.robot.FindModule(id)->offset = sign * o;
   }
-  for (ModuleParams& p : out.robot.modules) {
-    if (driven.count(p.id)) clamp_start(p);
+  for (const auto& [rep, members] : amplitude_classes) {
+    if (base_amplitudes.count(rep)) continue;
+    for (ModuleId id : members) clamp_amplitude(*out.robot.FindModule(id));
+  }
+  for (const auto& [rep, members] : offset_classes) {
+    if (base_offsets.count(rep)) continue;
+    for (const auto& [id, sign] : members) clamp_offset(*out.robot.FindModule(id));
   }
 
   auto value_of = [&](const std::string& param) -> double {
@@ -856,7 +1096,18 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   };
   for (const std::string& f : fixed_params) out.fixed.push_back({f, value_of(f)});
   // The free set in a fixed order (the seeded order only chose what to fix):
-  // amplitudes, offsets, then phases, each by representative.
+  // amplitudes, offsets, then phases, each by representative. A box widens
+  // to hold the base's value, so the start point is the base configuration.
+  for (auto* group : {&amplitudes, &offsets}) {
+    const std::set<ModuleId>& known = group == &amplitudes ? base_amplitudes : base_offsets;
+    for (Candidate& c : *group) {
+      const std::string& name = c.param.param;
+      if (!known.count(std::stoi(name.substr(name.find('.') + 1)))) continue;
+      const double v = value_of(name);
+      c.param.min = std::min(c.param.min, v);
+      c.param.max = std::max(c.param.max, v);
+    }
+  }
   for (const auto* group : {&amplitudes, &offsets, &phases}) {
     std::vector<Candidate> sorted = *group;
     std::sort(sorted.begin(), sorted.end(), [](const Candidate& x, const Candidate& y) {
@@ -884,7 +1135,7 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
       out.tied.push_back({"offset." + Id(id), expr});
     }
   }
-  for (TiedParameter& t : PhaseRules(sol, net.edges)) out.tied.push_back(std::move(t));
+  for (TiedParameter& t : PhaseRules(sol, net.edges, &base_phases, &out.notes)) out.tied.push_back(std::move(t));
   return out;
 }
 
@@ -914,7 +1165,11 @@ std::string GeneratedProblem::Explain() const {
       << " oscillators, " << network.edges.size() << " couplings (each both ways)\n";
   for (const NetworkEdge& e : network.edges) {
     out << "  " << e.u << " <-> " << e.v;
-    if (!e.physical) out << "  (across passive module " << e.via << ")";
+    if (e.from_base) {
+      out << "  (from the base configuration)";
+    } else if (!e.physical) {
+      out << "  (across passive module " << e.via << ")";
+    }
     out << "\n";
   }
   out << "\nsymmetries: group of order " << symmetry.full_order;
