@@ -306,7 +306,7 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
       return fmt::format("flushed: {} frames sent\n", r.frames_sent());
     });
   });
-  simple("refresh", "Resend every parameter of the configuration", [empty](Session& s) {
+  simple("refresh", "Resend every parameter (after a reopened link: relink and restore the robot)", [empty](Session& s) {
     return s.Unary(&v1::Host::Stub::Refresh, empty, s.Timeout(), [](const v1::FlushResponse& r) {
       return fmt::format("refreshed: {} frames sent\n", r.frames_sent());
     });
