@@ -80,6 +80,15 @@ void SnpLink::SendFrame(const snp::Frame& frame) {
                   "links and configures it again");
 }
 
+std::optional<snp::Message> SnpLink::Decode(const snp::Frame& frame, const std::string& from) {
+  try {
+    return snp::DecodeMessage(frame);
+  } catch (const Error& e) {
+    Log().warn("snp link: undecodable reply from {}: {}", from, e.what());
+    return std::nullopt;
+  }
+}
+
 void SnpLink::Unsolicited(const snp::Frame& frame) {
   if (unsolicited_) {
     unsolicited_(frame);
@@ -104,13 +113,9 @@ std::optional<snp::Message> SnpLink::ModuleRequest(int id, const snp::Message& m
       Unsolicited(*frame);
       continue;
     }
-    snp::Message m;
-    try {
-      m = snp::DecodeMessage(*frame);
-    } catch (const Error& e) {
-      Log().warn("snp link: undecodable reply from module {}: {}", id, e.what());
-      continue;
-    }
+    std::optional<snp::Message> decoded = Decode(*frame, "module " + std::to_string(id));
+    if (!decoded) continue;
+    const snp::Message& m = *decoded;
     if (const auto* ack = std::get_if<snp::Ack>(&m); ack && ack->acked == type) {
       if (ack->status != StatusCode::kOk) {
         throw Error(ack->status, "module " + std::to_string(id) + " refused " +
@@ -168,13 +173,9 @@ snp::Message SnpLink::AwaitBridgeReply(snp::MessageType type, snp::MessageType r
       Unsolicited(*frame);
       continue;
     }
-    snp::Message m;
-    try {
-      m = snp::DecodeMessage(*frame);
-    } catch (const Error& e) {
-      Log().warn("snp link: undecodable bridge reply: {}", e.what());
-      continue;
-    }
+    std::optional<snp::Message> decoded = Decode(*frame, "the bridge");
+    if (!decoded) continue;
+    const snp::Message& m = *decoded;
     if (const auto* error = std::get_if<snp::SpecialError>(&m); error && error->acked == type) {
       throw Error(error->code, std::string(snp::MessageTypeName(type)) + " failed: " + error->text);
     }

@@ -74,6 +74,8 @@ class SnpLink {
 
  private:
   void Unsolicited(const snp::Frame& frame);
+  // The frame's message; nullopt (logged, naming `from`) when undecodable.
+  static std::optional<snp::Message> Decode(const snp::Frame& frame, const std::string& from);
   // BridgeRequest in two halves, for pipelined reads.
   void SendBridgeCommand(const snp::Message& message);
   snp::Message AwaitBridgeReply(snp::MessageType command, snp::MessageType reply);

@@ -11,7 +11,7 @@
 #include <sstream>
 
 #include "proto/snp/recording.h"
-#include "tests/host/grpc_util.h"
+#include "tests/support/host_call.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -20,25 +20,8 @@ namespace {
 
 namespace v1 = yamor::v1;
 using google::protobuf::Empty;
+using ::yamor::testing::Call;
 using ::yamor::testing::YamordProcess;
-
-template <typename Request, typename Response>
-grpc::Status Call(v1::Host::Stub& stub,
-                  grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
-                                                         Response*),
-                  const Request& request, Response* response = nullptr) {
-  grpc::ClientContext context;
-  testing::SetDeadline(context, 120);
-  Response scratch;
-  return (stub.*method)(&context, request, response ? response : &scratch);
-}
-
-#define ASSERT_OK(expr)                                                        \
-  do {                                                                         \
-    const grpc::Status status_ = (expr);                                       \
-    ASSERT_TRUE(status_.ok()) << #expr << ": " << status_.error_code() << " " \
-                              << status_.error_message();                      \
-  } while (false)
 
 std::vector<std::string> SplitCsv(const std::string& line) {
   std::vector<std::string> cells;

@@ -506,7 +506,8 @@ TEST_P(SerialBackendTest, GarbageBeforeAndBetweenFramesIsSkippedAndCountedExactl
   SerialBackend backend(Options());
   std::mt19937 random(20261202);
   std::uniform_int_distribution<int> byte(0, 255);
-  std::vector<uint8_t> garbage_a(512 * 1024), garbage_b(512 * 1024 + 77);
+  // 10 MB in all, as the link-fault test asks.
+  std::vector<uint8_t> garbage_a(5'000'000), garbage_b(5'000'000 + 77);
   for (uint8_t& b : garbage_a) b = static_cast<uint8_t>(byte(random));
   for (uint8_t& b : garbage_b) b = static_cast<uint8_t>(byte(random));
   const snp::Frame first = FromModule(1, snp::ServoAngle{.angle = -0.5f});

@@ -20,7 +20,7 @@
 #include <thread>
 
 #include "proto/snp/snp.h"
-#include "tests/host/grpc_util.h"
+#include "tests/support/host_call.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -35,13 +35,6 @@ using ::yamor::testing::YamordProcess;
 const std::string kYamord = YAMORD_PATH;
 const std::string kBridge = YAMOR_BRIDGE_PATH;
 const std::string kSourceDir = YAMOR_SOURCE_DIR;
-
-#define ASSERT_OK(expr)                                                        \
-  do {                                                                         \
-    const grpc::Status status_ = (expr);                                       \
-    ASSERT_TRUE(status_.ok()) << #expr << ": " << status_.error_code() << " " \
-                              << status_.error_message();                      \
-  } while (false)
 
 // A fresh directory for the pty symlinks of one test.
 std::filesystem::path TempDir() {
@@ -84,10 +77,7 @@ struct Daemon {
   grpc::Status Call(grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
                                                            Response*),
                     const Request& request, Response* response = nullptr, int deadline_s = 120) {
-    grpc::ClientContext context;
-    testing::SetDeadline(context, deadline_s);
-    Response scratch;
-    return (stub.get()->*method)(&context, request, response ? response : &scratch);
+    return ::yamor::testing::Call(*stub, method, request, response, deadline_s);
   }
   std::unique_ptr<YamordProcess> process;
   int port = 0;
@@ -154,6 +144,9 @@ std::vector<v1::RobotPositionResponse> ThesisSession(Daemon& d) {
   transform.set_script_xml(script.str());
   const grpc::Status transformed = d.Call(&v1::Host::Stub::RunTransformationScript, transform);
   EXPECT_TRUE(transformed.ok()) << transformed.error_message();
+  position();
+  EXPECT_TRUE(d.Call(&v1::Host::Stub::TurnUpsideDown, Empty()).ok());
+  EXPECT_TRUE(d.Call(&v1::Host::Stub::Sleep, sleep).ok());
   position();
   return positions;
 }

@@ -17,6 +17,7 @@
 #include "bridge/bridge_transport.h"
 #include "physics/morphology.h"
 #include "tests/host/grpc_util.h"
+#include "tests/support/host_call.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -25,6 +26,7 @@ namespace {
 
 namespace v1 = yamor::v1;
 using google::protobuf::Empty;
+using ::yamor::testing::Call;
 using Clock = std::chrono::steady_clock;
 
 const char* const kYamord = YAMORD_PATH;
@@ -51,24 +53,6 @@ struct Connection {
   std::shared_ptr<grpc::Channel> channel;
   std::unique_ptr<v1::Host::Stub> stub;
 };
-
-template <typename Request, typename Response>
-grpc::Status Call(v1::Host::Stub& stub,
-                  grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
-                                                         Response*),
-                  const Request& request, Response* response = nullptr) {
-  grpc::ClientContext context;
-  testing::SetDeadline(context, 120);
-  Response scratch;
-  return (stub.*method)(&context, request, response ? response : &scratch);
-}
-
-#define ASSERT_OK(expr)                                                        \
-  do {                                                                         \
-    const grpc::Status status_ = (expr);                                       \
-    ASSERT_TRUE(status_.ok()) << #expr << ": " << status_.error_code() << " " \
-                              << status_.error_message();                      \
-  } while (false)
 
 TEST(YamordTest, TheThesisSessionOverGrpcHealthAndReflection) {
   Connection c({"--workers", "2"});
