@@ -60,7 +60,7 @@ MotionPath SineMove(double amplitude = 0.10, double length = 0.25, double move_t
 /// Circle of 4.3.4: `radius`, clockwise seen from above, back to the start.
 MotionPath CircleMove(double radius = 0.05, double move_time = 3.0, double rest = 1.0);
 /// Go and return of 4.3.4: `distance` along +x, a pause, back to the start.
-MotionPath GoAndReturnMove(double distance = 0.10, double leg_time = 1.5, double pause = 0.5,
+MotionPath GoAndReturnMove(double distance = 0.10, double leg_time = 0.8, double pause = 0.5,
                            double rest = 1.0);
 /// Random move in the air with tilting (4.3.4): a seeded smooth excursion
 /// lifting the module at most `max_height` above its resting height, tilting

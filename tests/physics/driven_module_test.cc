@@ -74,7 +74,7 @@ TEST(DrivenModuleTest, MovesStartAndEndAtRestWhereTheThesisSays) {
   }
   // Go and return: 10 cm out.
   const MotionPath go = GoAndReturnMove();
-  EXPECT_NEAR(go.At(2.75).position.x(), 0.10, 1e-12);
+  EXPECT_NEAR(go.At(2.0).position.x(), 0.10, 1e-12);
   // Flip: ends upside down on the ground.
   const MotionPath flip = FlipMove();
   const PathPoint flipped = flip.At(flip.duration());
