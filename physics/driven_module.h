@@ -55,10 +55,10 @@ double RestingHeight();
 
 /// Sine move of 4.3.4: `length` along +x while y swings one period of
 /// `amplitude` (peak), after `rest` s at rest and before `rest` s at rest.
-MotionPath SineMove(double amplitude = 0.10, double length = 0.25, double move_time = 3.0,
+MotionPath SineMove(double amplitude = 0.10, double length = 0.25, double move_time = 2.0,
                     double rest = 1.0);
 /// Circle of 4.3.4: `radius`, clockwise seen from above, back to the start.
-MotionPath CircleMove(double radius = 0.05, double move_time = 3.0, double rest = 1.0);
+MotionPath CircleMove(double radius = 0.05, double move_time = 2.0, double rest = 1.0);
 /// Go and return of 4.3.4: `distance` along +x, a pause, back to the start.
 MotionPath GoAndReturnMove(double distance = 0.10, double leg_time = 0.8, double pause = 0.5,
                            double rest = 1.0);

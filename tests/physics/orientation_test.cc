@@ -106,11 +106,11 @@ TEST(MotionMonitorTest, SineMoveIsMovingInTheMiddleOnly) {
   int moving_mid = 0, mid = 0;
   for (const DrivenSample& s : Drive(SineMove(), 4)) {
     monitor.Add(s.reading.acceleration);
-    if (s.time > 1.5 && s.time < 3.5) {
+    if (s.time > 1.3 && s.time < 2.7) {
       ++mid;
       moving_mid += monitor.moving();
     }
-    if (s.time < 0.95 || s.time > 4.2) {
+    if (s.time < 0.95 || s.time > 3.2) {
       EXPECT_FALSE(monitor.moving()) << s.time;
     }
   }
