@@ -110,3 +110,101 @@ TEST(CharacterizeNoiseTest, CsvHasAllCodesOfTheSpan) {
 
 }  // namespace
 }  // namespace yamor::characterize
+
+namespace yamor::characterize {
+namespace {
+
+class LoggedCsvTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("yamor_characterize_log_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path Write(const std::string& name, const std::string& text) {
+    const auto path = dir_ / name;
+    std::ofstream(path, std::ios::binary) << text;
+    return path;
+  }
+  std::string ErrorOf(const std::string& text) {
+    try {
+      ReadLoggedReadings(Write("log.csv", text));
+    } catch (const Error& e) {
+      return std::string(StatusCodeName(e.code())) + " " + e.what();
+    }
+    return "no error";
+  }
+  std::filesystem::path dir_;
+};
+
+TEST_F(LoggedCsvTest, ReadsItsOwnNoiseCsvBack) {
+  NoiseOptions options;
+  options.duration = 1;
+  const NoiseResult simulated = MeasureNoise(options);
+  const auto readings = ReadLoggedReadings(Write("noise.csv", NoiseCsv(simulated)));
+  ASSERT_EQ(readings.size(), simulated.counts.size());
+  for (size_t i = 0; i < readings.size(); ++i) {
+    EXPECT_EQ(readings[i].counts, simulated.counts[i]);
+    EXPECT_EQ(readings[i].time, simulated.time[i]);
+  }
+  // Table 4.1 from the log: the zero is the mean, so the band is centred.
+  const NoiseResult logged = NoiseFromLog(readings);
+  for (size_t axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(logged.axes[axis].n_ampl, simulated.axes[axis].n_ampl, 1e-9);
+    EXPECT_LT(logged.axes[axis].n_min, 0);
+    EXPECT_GT(logged.axes[axis].n_max, 0);
+  }
+}
+
+TEST_F(LoggedCsvTest, FiltersALoggedMoveLikeTheSimulatedOne) {
+  MoveOptions options;
+  const physics::MotionPath path = physics::GoAndReturnMove();
+  physics::DrivenModule module(path, options.module);
+  std::ostringstream csv;
+  csv << "time,count_x,count_y,count_z\n";
+  for (const auto& s : module.Run()) {
+    csv << s.time << ',' << s.reading.counts[0] << ',' << s.reading.counts[1] << ','
+        << s.reading.counts[2] << '\n';
+  }
+  const MoveResult logged = FilterLog("logged", ReadLoggedReadings(Write("move.csv", csv.str())));
+  const MoveResult simulated = MeasureMove(path, options);
+  ASSERT_EQ(logged.rows.size(), simulated.rows.size());
+  EXPECT_NEAR(logged.rows.back().filtered.position.x(), simulated.rows.back().filtered.position.x(),
+              1e-6);
+}
+
+TEST_F(LoggedCsvTest, BadFilesNameTheFileAndLine) {
+  const std::string header = "time,count_x,count_y,count_z\n";
+  std::string e = ErrorOf(header + "0,512,512,760\n0.01,512,abc,760\n");
+  EXPECT_NE(e.find("INVALID_ARGUMENT"), std::string::npos) << e;
+  EXPECT_NE(e.find("log.csv:3: count_y 'abc' is not an integer"), std::string::npos) << e;
+  e = ErrorOf(header + "0,512,512,760\n0.01,512,51");  // cut mid-line
+  EXPECT_NE(e.find("log.csv:3: 3 fields, the header has 4 (truncated last line)"),
+            std::string::npos) << e;
+  e = ErrorOf(header + "0,512,512,1024\n");
+  EXPECT_NE(e.find("log.csv:2: count_z 1024 outside [0, 1023]"), std::string::npos) << e;
+  e = ErrorOf(header + "0.5,512,512,760\n0.5,512,512,760\n");
+  EXPECT_NE(e.find("log.csv:3: time 0.5 does not increase"), std::string::npos) << e;
+  e = ErrorOf("time,count_x,count_z\n0,1,2\n");
+  EXPECT_NE(e.find("log.csv:1: header has no column 'count_y'"), std::string::npos) << e;
+  e = ErrorOf(header);
+  EXPECT_NE(e.find("no readings after the header"), std::string::npos) << e;
+  e = ErrorOf("");
+  EXPECT_NE(e.find("log.csv:1: empty file"), std::string::npos) << e;
+  e = ErrorOf(header + "nan,1,2,3\n");
+  EXPECT_NE(e.find("time 'nan' is not a finite number"), std::string::npos) << e;
+  try {
+    ReadLoggedReadings(dir_ / "absent.csv");
+    FAIL();
+  } catch (const Error& error) {
+    EXPECT_EQ(error.code(), StatusCode::kNotFound);
+    EXPECT_NE(std::string(error.what()).find("absent.csv"), std::string::npos);
+  }
+  // Shorter than the calibration.
+  EXPECT_THROW(FilterLog("short", ReadLoggedReadings(Write("s.csv", header + "0,1,2,3\n1,1,2,3\n"))),
+               Error);
+}
+
+}  // namespace
+}  // namespace yamor::characterize

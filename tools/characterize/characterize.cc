@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <system_error>
@@ -136,6 +137,139 @@ MoveResult MeasureMove(const physics::MotionPath& path, const MoveOptions& optio
     result.final_error_filtered = last.filtered.position - last.true_position;
   }
   result.impacts = module.board().impacts();
+  return result;
+}
+
+std::vector<LoggedReading> ReadLoggedReadings(const std::filesystem::path& path, int max_count) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(StatusCode::kNotFound, "cannot open " + path.string());
+  const std::string file = path.string();
+  auto bad = [&](size_t line, const std::string& what) {
+    return Error(StatusCode::kInvalidArgument, file + ":" + std::to_string(line) + ": " + what);
+  };
+  auto split = [](const std::string& line) {
+    std::vector<std::string> fields;
+    std::string field;
+    std::istringstream stream(line);
+    while (std::getline(stream, field, ',')) fields.push_back(field);
+    if (!line.empty() && line.back() == ',') fields.emplace_back();
+    return fields;
+  };
+  std::string line;
+  if (!std::getline(in, line)) throw bad(1, "empty file, expected a header");
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  const std::vector<std::string> header = split(line);
+  std::array<size_t, 4> column{};
+  const std::array<const char*, 4> names{"time", "count_x", "count_y", "count_z"};
+  for (size_t i = 0; i < names.size(); ++i) {
+    const auto it = std::find(header.begin(), header.end(), names[i]);
+    if (it == header.end()) throw bad(1, std::string("header has no column '") + names[i] + "'");
+    column[i] = static_cast<size_t>(it - header.begin());
+  }
+  std::vector<LoggedReading> readings;
+  size_t number = 1;
+  while (std::getline(in, line)) {
+    ++number;
+    const bool complete = !in.eof();  // the last line of a whole file ends in a newline
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    const std::vector<std::string> fields = split(line);
+    if (fields.size() != header.size()) {
+      throw bad(number, std::to_string(fields.size()) + " fields, the header has " +
+                            std::to_string(header.size()) +
+                            (complete ? "" : " (truncated last line)"));
+    }
+    LoggedReading r;
+    const std::string& t = fields[column[0]];
+    char* end = nullptr;
+    r.time = std::strtod(t.c_str(), &end);
+    if (t.empty() || *end != '\0' || !std::isfinite(r.time)) {
+      throw bad(number, "time '" + t + "' is not a finite number");
+    }
+    if (!readings.empty() && r.time <= readings.back().time) {
+      throw bad(number, "time " + t + " does not increase");
+    }
+    for (size_t axis = 0; axis < 3; ++axis) {
+      const std::string& c = fields[column[axis + 1]];
+      const long value = std::strtol(c.c_str(), &end, 10);
+      if (c.empty() || *end != '\0') throw bad(number, std::string(names[axis + 1]) + " '" + c + "' is not an integer");
+      if (value < 0 || value > max_count) {
+        throw bad(number, std::string(names[axis + 1]) + " " + c + " outside [0, " +
+                              std::to_string(max_count) + "]");
+      }
+      r.counts[axis] = static_cast<int>(value);
+    }
+    readings.push_back(r);
+  }
+  if (readings.empty()) throw bad(number, "no readings after the header");
+  return readings;
+}
+
+NoiseResult NoiseFromLog(const std::vector<LoggedReading>& readings, double count_size) {
+  if (readings.size() < 2) {
+    throw Error(StatusCode::kInvalidArgument,
+                "a noise log needs at least 2 readings, got " + std::to_string(readings.size()));
+  }
+  NoiseResult result;
+  result.count_size = count_size;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const LoggedReading& r : readings) mean += Eigen::Vector3d(r.counts[0], r.counts[1], r.counts[2]);
+  mean /= double(readings.size());
+  // Noise relative to the mean; true_force makes HistogramCsv() use the same zero.
+  result.true_force = (mean - Eigen::Vector3d::Constant(512)) * count_size;
+  std::array<double, 3> sum2{};
+  for (const LoggedReading& r : readings) {
+    const Eigen::Vector3d noise =
+        (Eigen::Vector3d(r.counts[0], r.counts[1], r.counts[2]) - mean) * count_size;
+    result.time.push_back(r.time);
+    result.counts.push_back(r.counts);
+    result.noise.push_back(noise);
+    for (size_t axis = 0; axis < 3; ++axis) {
+      NoiseAxis& a = result.axes[axis];
+      const double n = noise[static_cast<int>(axis)];
+      if (result.noise.size() == 1) a.n_min = a.n_max = n;
+      a.n_min = std::min(a.n_min, n);
+      a.n_max = std::max(a.n_max, n);
+      ++a.histogram[r.counts[axis]];
+      sum2[axis] += n * n;
+    }
+  }
+  for (size_t axis = 0; axis < 3; ++axis) {
+    NoiseAxis& a = result.axes[axis];
+    a.n_ampl = a.n_max - a.n_min;
+    a.n_ratio = a.n_ampl / (1024 * count_size);
+    a.mean = 0;
+    a.stddev = std::sqrt(sum2[axis] / double(readings.size()));
+  }
+  return result;
+}
+
+MoveResult FilterLog(const std::string& name, const std::vector<LoggedReading>& readings,
+                     physics::An3397Options filter) {
+  if (readings.size() < static_cast<size_t>(std::max(filter.calibration_readings, 2))) {
+    throw Error(StatusCode::kInvalidArgument,
+                "log '" + name + "' has " + std::to_string(readings.size()) +
+                    " readings, fewer than the " + std::to_string(filter.calibration_readings) +
+                    " of the rest calibration");
+  }
+  const double interval = (readings.back().time - readings.front().time) / double(readings.size() - 1);
+  filter.sample_period = interval * filter.average_count;
+  physics::An3397Options noise_only = filter;
+  noise_only.window_filter = false;
+  noise_only.movement_end = false;
+  physics::An3397Filter full(filter), partial(noise_only);
+  MoveResult result;
+  result.name = name;
+  for (const LoggedReading& r : readings) {
+    const auto a = full.Add(r.counts);
+    const auto b = partial.Add(r.counts);
+    if (!a) continue;
+    MoveRow row;
+    row.time = r.time;
+    row.filtered = *a;
+    row.noise_filtered = *b;
+    result.rows.push_back(row);
+  }
   return result;
 }
 

@@ -102,6 +102,32 @@ MoveResult MeasureMove(const physics::MotionPath& path, const MoveOptions& optio
 /// The moves of 4.3.4 by name: sine, circle, go-and-return, random, drop.
 std::vector<physics::MotionPath> ThesisMoves(std::uint64_t seed);
 
+/// One logged raw reading (a real sensor board, or a noise.csv written here).
+/// Thread-safety: plain value.
+struct LoggedReading {
+  double time = 0;              ///< s, strictly increasing.
+  std::array<int, 3> counts{};  ///< ADC codes, in [0, max_count].
+};
+
+/// Reads logged readings from a CSV whose header names `time`, `count_x`,
+/// `count_y` and `count_z` (other columns are ignored; noise.csv qualifies).
+/// kNotFound for a missing file; kInvalidArgument naming "file:line" for a
+/// malformed, truncated or out-of-range row, a missing column or no rows.
+std::vector<LoggedReading> ReadLoggedReadings(const std::filesystem::path& path,
+                                              int max_count = 1023);
+
+/// Table 4.1 from logged readings of a board at rest: the noise is taken
+/// from each axis's mean (its true value is unknown), `count_size` m/s² per
+/// count. kInvalidArgument for fewer than two readings.
+NoiseResult NoiseFromLog(const std::vector<LoggedReading>& readings, double count_size = 0.0395);
+
+/// Runs both AN3397 chains over logged readings (the first
+/// filter.calibration_readings must be at rest); rows without a tracker (its
+/// fields stay zero). The sample period is the log's mean reading interval ×
+/// average_count. kInvalidArgument when the log is shorter than the calibration.
+MoveResult FilterLog(const std::string& name, const std::vector<LoggedReading>& readings,
+                     physics::An3397Options filter = physics::An3397Options());
+
 /// Writes `text` to `path` through a temporary file and a rename, so a
 /// reader never sees half a file. Throws kUnavailable naming the path.
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& text);

@@ -22,18 +22,21 @@ namespace {
 namespace ch = yamor::characterize;
 namespace fs = std::filesystem;
 
-void Noise(const fs::path& out, std::uint64_t seed, double duration, double rate) {
+void Noise(const fs::path& out, std::uint64_t seed, double duration, double rate,
+           const std::string& input) {
   ch::NoiseOptions options;
   options.seed = seed;
   options.duration = duration;
   options.sample_rate = rate;
-  const ch::NoiseResult result = ch::MeasureNoise(options);
+  const ch::NoiseResult result = input.empty() ? ch::MeasureNoise(options)
+                                               : ch::NoiseFromLog(ch::ReadLoggedReadings(input));
   fs::create_directories(out);
   ch::WriteFileAtomically(out / "noise.csv", ch::NoiseCsv(result));
   ch::WriteFileAtomically(out / "histogram.csv", ch::HistogramCsv(result));
   ch::WriteFileAtomically(out / "table4-1.csv", ch::Table41Csv(result));
-  std::printf("Table 4.1 (%zu readings per axis, seed %llu): measured | thesis\n",
-              result.noise.size(), static_cast<unsigned long long>(seed));
+  std::printf("Table 4.1 (%zu readings per axis, %s): measured | thesis\n", result.noise.size(),
+              input.empty() ? ("simulated, seed " + std::to_string(seed)).c_str()
+                            : ("from " + input).c_str());
   std::printf("axis   N_min    N_max   N_ampl  N_ratio |  N_min    N_max   N_ampl  N_ratio\n");
   for (size_t axis = 0; axis < 3; ++axis) {
     const ch::NoiseAxis& a = result.axes[axis];
@@ -42,6 +45,18 @@ void Noise(const fs::path& out, std::uint64_t seed, double duration, double rate
                 ch::ThesisTable41::kMax[axis], ch::ThesisTable41::kAmpl[axis],
                 100 * ch::ThesisTable41::kRatio[axis]);
   }
+}
+
+void FilterInput(const fs::path& out, const std::string& input, const std::string& name) {
+  const ch::MoveResult r = ch::FilterLog(name, ch::ReadLoggedReadings(input));
+  fs::create_directories(out);
+  ch::WriteFileAtomically(out / (name + ".csv"), ch::MoveCsv(r));
+  const auto& last = r.rows.back();
+  std::printf("%s: %zu samples; final position [cm] noise-filtered %.2f %.2f %.2f, filtered %.2f "
+              "%.2f %.2f\n", name.c_str(), r.rows.size(), 100 * last.noise_filtered.position.x(),
+              100 * last.noise_filtered.position.y(), 100 * last.noise_filtered.position.z(),
+              100 * last.filtered.position.x(), 100 * last.filtered.position.y(),
+              100 * last.filtered.position.z());
 }
 
 void Moves(const fs::path& out, std::uint64_t seed, const std::string& only) {
@@ -83,19 +98,32 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 0;
   double duration = 10, rate = 110;
   std::string move = "all";
+  std::string input, name = "logged";
   CLI::App* noise = app.add_subcommand("noise", "module at rest → Table 4.1, Figures B.1–B.4 data");
   noise->add_option("--out", out, "output folder (default results/characterize)");
   noise->add_option("--seed", seed, "sensor noise seed");
   noise->add_option("--duration", duration, "seconds at rest (10)")->check(CLI::PositiveNumber);
   noise->add_option("--rate", rate, "readings per second (110)")->check(CLI::PositiveNumber);
+  noise->add_option("--input", input,
+                    "logged readings of a board at rest (CSV: time,count_x,count_y,count_z)");
   CLI::App* moves = app.add_subcommand("moves", "moves of 4.3.4 → Figures B.5–B.19 data");
   moves->add_option("--out", out, "output folder (default results/characterize)");
   moves->add_option("--seed", seed, "sensor noise, shock and random-move seed");
   moves->add_option("--move", move, "sine, circle, go-and-return, random, drop or all");
+  moves->add_option("--input", input,
+                    "filter logged readings instead (CSV: time,count_x,count_y,count_z; "
+                    "the first 1024 at rest)");
+  moves->add_option("--name", name, "with --input: name of the output CSV (logged)");
   CLI11_PARSE(app, argc, argv);
   try {
-    if (noise->parsed()) Noise(out, seed, duration, rate);
-    if (moves->parsed()) Moves(out, seed, move);
+    if (noise->parsed()) Noise(out, seed, duration, rate, input);
+    if (moves->parsed()) {
+      if (input.empty()) {
+        Moves(out, seed, move);
+      } else {
+        FilterInput(out, input, name);
+      }
+    }
   } catch (const yamor::Error& e) {
     std::fprintf(stderr, "yamor-characterize: %s: %s\n",
                  std::string(yamor::StatusCodeName(e.code())).c_str(), e.what());
