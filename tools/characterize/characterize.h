@@ -15,6 +15,7 @@
 #include "physics/accelerometer.h"
 #include "physics/an3397.h"
 #include "physics/driven_module.h"
+#include "tools/characterize/logged_csv.h"
 
 namespace yamor::characterize {
 
@@ -101,20 +102,6 @@ MoveResult MeasureMove(const physics::MotionPath& path, const MoveOptions& optio
 
 /// The moves of 4.3.4 by name: sine, circle, go-and-return, random, drop.
 std::vector<physics::MotionPath> ThesisMoves(std::uint64_t seed);
-
-/// One logged raw reading (a real sensor board, or a noise.csv written here).
-/// Thread-safety: plain value.
-struct LoggedReading {
-  double time = 0;              ///< s, strictly increasing.
-  std::array<int, 3> counts{};  ///< ADC codes, in [0, max_count].
-};
-
-/// Reads logged readings from a CSV whose header names `time`, `count_x`,
-/// `count_y` and `count_z` (other columns are ignored; noise.csv qualifies).
-/// kNotFound for a missing file; kInvalidArgument naming "file:line" for a
-/// malformed, truncated or out-of-range row, a missing column or no rows.
-std::vector<LoggedReading> ReadLoggedReadings(const std::filesystem::path& path,
-                                              int max_count = 1023);
 
 /// Table 4.1 from logged readings of a board at rest: the noise is taken
 /// from each axis's mean (its true value is unknown), `count_size` m/s² per
