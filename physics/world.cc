@@ -94,6 +94,7 @@ void CheckOptions(const WorldOptions& o) {
   positive(o.servo.lock_torque, "servo.lock_torque");
   positive(o.servo.lock_gain, "servo.lock_gain");
   positive(o.accelerometer.count_size, "accelerometer.count_size");
+  ValidateAccelerometerSpec(o.accelerometer);
 }
 
 // Guards ODE's process-wide random generator used by dWorldQuickStep.

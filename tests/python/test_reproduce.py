@@ -225,3 +225,26 @@ def test_learning_bench_refuses_grid_with_the_reason(capsys):
     assert [v.name for v in args.variants][-1] == "pso"
     assert len(args.variants) == 6
     assert bench.parse_args([]).checkpoints == [100, 300]  # 1000 = the budget, its own column
+
+
+def test_ch4_writes_table_4_1_and_the_19_appendix_b_figures(tmp_path):
+    tool = BUILD / "tools" / "characterize" / "yamor-characterize"
+    if not tool.exists():
+        pytest.skip(f"not built: {tool}")
+    result = run_tool(REPRODUCE, "ch4", "--out", str(tmp_path))
+    folder = tmp_path / "ch4"
+    header, rows = read_csv(folder / "table4-1.csv")
+    assert [r[0] for r in rows] == ["x", "y", "z"]
+    for row in rows:
+        values = dict(zip(header, row))
+        # Within one ADC count of the thesis at each end of the band.
+        assert abs(float(values["n_min"]) - float(values["thesis_n_min"])) <= 0.0395, row
+        assert abs(float(values["n_max"]) - float(values["thesis_n_max"])) <= 0.0395, row
+        assert int(values["samples"]) > 1000
+    for move in ("sine", "circle", "go-and-return", "random", "drop"):
+        header, rows = read_csv(folder / f"{move}.csv")
+        assert "filtered_position_x" in header and len(rows) > 200, move
+    for number in range(1, 20):
+        check_png(folder / f"figB-{number}.png")
+    assert not list(folder.glob("*.partial*"))
+    assert "Table 4.1" in result.stdout

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Reproduces the thesis's chapter 6 optimization figures with yamor-optimize.
+"""Reproduces the thesis's chapter 4 and chapter 6 figures (yamor-characterize, yamor-optimize).
 
-Usage: reproduce.py {fig6-3,fig6-5-7,fig6-12,all} [--out results/reproduce]
+Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,all} [--out results/reproduce]
                     [--build build/release] [--quick] [--hosts H:P,...] [--daemons N]
 
   fig6-3    the 64x64 landscape of the quadruped's velocity over the hip->knee
@@ -13,6 +13,9 @@ Usage: reproduce.py {fig6-3,fig6-5-7,fig6-12,all} [--out results/reproduce]
   fig6-12   classic vs interval Powell on the seven parameters (quadruped-7.xml)
             from 10 seeded random start points, best-so-far curves side by side
   all       the three, over one daemon pool
+  ch4       chapter 4 in simulation (no daemons): Table 4.1 and Figures B.1-B.19
+            from yamor-characterize noise and moves (seed --eval-seed), drawn by
+            tools/characterize/plot_characterize.py (not with --quick)
 
 Every command writes its PNG and CSV under OUT/<figure>/ (see
 tools/reproduce/README.md). Unless --hosts names running daemons, it starts
@@ -27,6 +30,7 @@ import csv
 import json
 import math
 import shutil
+import subprocess
 import sys
 import time
 import xml.etree.ElementTree as ET
@@ -341,7 +345,7 @@ def parse_args(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="\n".join(__doc__.splitlines()[4:]))
-    parser.add_argument("figure", choices=["fig6-3", "fig6-5-7", "fig6-12", "all"])
+    parser.add_argument("figure", choices=["ch4", "fig6-3", "fig6-5-7", "fig6-12", "all"])
     parser.add_argument("--out", default="results/reproduce", help="results folder (default %(default)s)")
     parser.add_argument("--build", default="build/release", help="build tree (default %(default)s)")
     parser.add_argument("--quick", action="store_true",
@@ -381,8 +385,50 @@ def parse_args(argv):
     return args
 
 
+# --- Chapter 4 ----------------------------------------------------------------
+
+def ch4(args, out: Path) -> Path:
+    """Table 4.1 and appendix B's figures; returns the results folder."""
+    build = Path(args.build)
+    if not build.is_absolute():
+        build = REPO / build
+    tool = build / "tools" / "characterize" / "yamor-characterize"
+    if not tool.exists():
+        raise ToolError(f"{tool} does not exist (build the yamor-characterize target, or pass --build)")
+    folder = out / "ch4"
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    seed = str(args.eval_seed)
+    for command in (["noise"], ["moves"]):
+        argv = [str(tool), *command, "--out", str(folder), "--seed", seed]
+        print("reproduce: " + " ".join(argv), flush=True)
+        result = subprocess.run(argv, capture_output=True, text=True)
+        (folder / f"{command[0]}.log").write_text(result.stdout + result.stderr)
+        if result.returncode != 0:
+            raise ToolError(f"{' '.join(argv)} failed ({result.returncode}): {result.stderr.strip()}")
+        if not args.quiet:
+            print(result.stdout, end="", flush=True)
+    if not args.quick:
+        sys.path.insert(0, str(REPO / "tools" / "characterize"))
+        import plot_characterize  # noqa: E402
+
+        if plot_characterize.main([str(folder)]) != 0:
+            raise ToolError(f"plot_characterize.py could not draw {folder}")
+    return folder
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if args.figure == "ch4":
+        out = Path(args.out)
+        if not out.is_absolute():
+            out = Path.cwd() / out
+        started = time.monotonic()
+        folder = ch4(args, out)
+        print(f"reproduce: ch4 done in {time.monotonic() - started:.0f} s; results in {folder}",
+              flush=True)
+        return 0
     bins = daemons.binaries(args.build)
     out = Path(args.out)
     if not out.is_absolute():
