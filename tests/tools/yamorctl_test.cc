@@ -103,6 +103,7 @@ class RecordingHost final : public v1::Host::Service {
   YAMOR_FAKE(GetServoAngles, v1::GetServoAnglesRequest, v1::GetServoAnglesResponse)
   YAMOR_FAKE(GetAccelerometer, v1::GetAccelerometerRequest, v1::GetAccelerometerResponse)
   YAMOR_FAKE(ResetSimulation, Empty, Empty)
+  YAMOR_FAKE(TurnUpsideDown, Empty, Empty)
   YAMOR_FAKE(Evaluate, v1::EvaluateRequest, v1::EvaluateResponse)
   YAMOR_FAKE(SetFreeRun, v1::SetFreeRunRequest, Empty)
 #undef YAMOR_FAKE
@@ -273,6 +274,7 @@ TEST_F(YamorctlTest, EveryCommandSendsItsRequest) {
       {{"servos", "1", "2"}, "GetServoAngles", "module_ids: 1 module_ids: 2"},
       {{"accel", "4", "--samples", "3"}, "GetAccelerometer", "module_id: 4 samples: 3"},
       {{"reset"}, "ResetSimulation", ""},
+      {{"upside-down"}, "TurnUpsideDown", ""},
       {{"watch", "--period", "0.5", "--count", "1"}, "WatchState", "period: 0.5"},
       {{"evaluate", "--world", "quadruped", "--param", "amplitude.3=0.5", "--param",
         "phase.2.5=-1", "--warmup", "2", "--duration", "3", "--seed", "9", "--trajectory", "0.5",
