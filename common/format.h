@@ -10,4 +10,9 @@ namespace yamor {
 /// Thread-safety: a pure function.
 std::string FormatDouble(double value);
 
+/// At most 6 significant digits ("0.15" for 0.15000000000000002, "2",
+/// "1e-06"), for messages where the last bits are noise (times, timeouts).
+/// Thread-safety: a pure function.
+std::string FormatRounded(double value);
+
 }  // namespace yamor

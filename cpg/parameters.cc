@@ -4,16 +4,11 @@
 #include <map>
 #include <sstream>
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::cpg {
 namespace {
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
 
 cpg::ModuleParams& Module(cpg::RobotConfig& config, int id) {
   cpg::ModuleParams* m = config.FindModule(id);
@@ -26,14 +21,14 @@ cpg::ModuleParams& Module(cpg::RobotConfig& config, int id) {
 
 void CheckFinite(double value, const std::string& what) {
   if (!std::isfinite(value)) {
-    throw Error(StatusCode::kInvalidArgument, what + " is not finite: " + Num(value));
+    throw Error(StatusCode::kInvalidArgument, what + " is not finite: " + FormatRounded(value));
   }
 }
 
 void CheckRange(double value, double lo, double hi, const std::string& what) {
   if (!(value >= lo && value <= hi)) {
     throw Error(StatusCode::kOutOfRange,
-                what + " = " + Num(value) + " is outside [" + Num(lo) + ", " + Num(hi) + "]");
+                what + " = " + FormatRounded(value) + " is outside [" + FormatRounded(lo) + ", " + FormatRounded(hi) + "]");
   }
 }
 
@@ -58,8 +53,8 @@ void CheckCouplingValue(CouplingField field, double value, const std::string& wh
 void CheckOrder(const cpg::ModuleParams& m) {
   if (!(m.min_angle < m.max_angle)) {
     throw Error(StatusCode::kOutOfRange,
-                "module " + std::to_string(m.id) + ": min angle " + Num(m.min_angle) +
-                    " must be below max angle " + Num(m.max_angle));
+                "module " + std::to_string(m.id) + ": min angle " + FormatRounded(m.min_angle) +
+                    " must be below max angle " + FormatRounded(m.max_angle));
   }
 }
 

@@ -37,12 +37,6 @@ constexpr double kMinTimeStep = 1e-5;
 constexpr double kMaxTimeStep = 0.02;
 constexpr double kMaxLinkTimeout = 120.0;
 
-std::string Num(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
-
 std::string Id(int id) { return std::to_string(id); }
 
 double SecondsSince(Clock::time_point t) {
@@ -169,7 +163,7 @@ void RobotDriver::QueryDivergenceLocked() {
   const auto& info = std::get<snp::Divergence>(m);
   if (!info.diverged) return;
   diverged_ = true;
-  divergence_ = info.reason + " at t = " + Num(info.time) + " s";
+  divergence_ = info.reason + " at t = " + FormatRounded(info.time) + " s";
   PushEvent(StateEvent{.kind = "diverged",
                        .module_id = info.module != snp::kNoModule ? link_->Real(info.module) : -1,
                        .detail = divergence_});
@@ -249,11 +243,11 @@ void RobotDriver::MarkAllPendingLocked() {
 OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
   double time_step = spec.time_step == 0.0 ? DefaultSimulationTimeStep() : spec.time_step;
   if (!std::isfinite(time_step)) {
-    throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + Num(time_step));
+    throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + FormatRounded(time_step));
   }
   if (time_step < kMinTimeStep || time_step > kMaxTimeStep) {
-    throw Error(StatusCode::kOutOfRange, "time step " + Num(time_step) + " s is outside [" +
-                                             Num(kMinTimeStep) + ", " + Num(kMaxTimeStep) + "]");
+    throw Error(StatusCode::kOutOfRange, "time step " + FormatRounded(time_step) + " s is outside [" +
+                                             FormatRounded(kMinTimeStep) + ", " + FormatRounded(kMaxTimeStep) + "]");
   }
   Lock lock(mutex_);
   if (shutdown_) ThrowShutdown("OpenSimulation");
@@ -563,7 +557,7 @@ void RobotDriver::LinkTreeLocked(double timeout, const CancelCheck& cancel,
       const std::string tries =
           attempts == 1 ? std::string() : " (" + Id(attempts) + " attempts)";
       if (!up && timed_out) {
-        throw Error(StatusCode::kUnavailable, link + " timed out after " + Num(timeout) + " s" +
+        throw Error(StatusCode::kUnavailable, link + " timed out after " + FormatRounded(timeout) + " s" +
                                                   tries + progress);
       }
       if (!up) {
@@ -580,11 +574,11 @@ void RobotDriver::LinkTreeLocked(double timeout, const CancelCheck& cancel,
 ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
                                         const CancelCheck& cancel) {
   if (!std::isfinite(link_timeout)) {
-    throw Error(StatusCode::kInvalidArgument, "link timeout is not finite: " + Num(link_timeout));
+    throw Error(StatusCode::kInvalidArgument, "link timeout is not finite: " + FormatRounded(link_timeout));
   }
   if (link_timeout < 0.0 || link_timeout > kMaxLinkTimeout) {
-    throw Error(StatusCode::kOutOfRange, "link timeout " + Num(link_timeout) +
-                                             " s is outside [0, " + Num(kMaxLinkTimeout) + "]");
+    throw Error(StatusCode::kOutOfRange, "link timeout " + FormatRounded(link_timeout) +
+                                             " s is outside [0, " + FormatRounded(kMaxLinkTimeout) + "]");
   }
   const double timeout = link_timeout > 0.0 ? link_timeout : options_.link_timeout;
   const Clock::time_point start = Clock::now();
@@ -746,11 +740,11 @@ double RobotDriver::SleepRealTime(double seconds, const CancelCheck& cancel) {
 
 double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& cancel) {
   if (!std::isfinite(seconds)) {
-    throw Error(StatusCode::kInvalidArgument, "sleep duration is not finite: " + Num(seconds));
+    throw Error(StatusCode::kInvalidArgument, "sleep duration is not finite: " + FormatRounded(seconds));
   }
   if (seconds < 0.0 || seconds > options_.max_sleep) {
-    throw Error(StatusCode::kOutOfRange, "sleep duration " + Num(seconds) + " s is outside [0, " +
-                                             Num(options_.max_sleep) + "]");
+    throw Error(StatusCode::kOutOfRange, "sleep duration " + FormatRounded(seconds) + " s is outside [0, " +
+                                             FormatRounded(options_.max_sleep) + "]");
   }
   double target = 0.0;
   {
@@ -767,7 +761,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
     if (shutdown_) ThrowShutdown("Sleep");
     Lock lock(mutex_);
     if (cancel && cancel()) {
-      throw Error(StatusCode::kCancelled, "Sleep cancelled at t = " + Num(sim_time_) + " s");
+      throw Error(StatusCode::kCancelled, "Sleep cancelled at t = " + FormatRounded(sim_time_) + " s");
     }
     if (!backend_ || !backend_->IsSimulation()) {
       throw Error(StatusCode::kFailedPrecondition, "the simulation was closed during Sleep");
@@ -910,7 +904,7 @@ void RobotDriver::SetModuleDefect(int id, bool defective) {
 void RobotDriver::SetGround(const GroundChange& change) {
   auto check_finite = [](const std::optional<double>& v, std::string_view what) {
     if (v && !std::isfinite(*v)) {
-      throw Error(StatusCode::kInvalidArgument, std::string(what) + " is not finite: " + Num(*v));
+      throw Error(StatusCode::kInvalidArgument, std::string(what) + " is not finite: " + FormatRounded(*v));
     }
   };
   check_finite(change.friction, "ground friction");
@@ -918,10 +912,10 @@ void RobotDriver::SetGround(const GroundChange& change) {
   check_finite(change.slope_direction, "slope direction");
   if (change.friction && !(*change.friction > 0.0 && *change.friction <= 100.0)) {
     throw Error(StatusCode::kOutOfRange,
-                "ground friction " + Num(*change.friction) + " is outside (0, 100]");
+                "ground friction " + FormatRounded(*change.friction) + " is outside (0, 100]");
   }
   if (change.slope && !(*change.slope >= 0.0 && *change.slope < M_PI / 2)) {
-    throw Error(StatusCode::kOutOfRange, "slope " + Num(*change.slope) + " rad is outside [0, pi/2)");
+    throw Error(StatusCode::kOutOfRange, "slope " + FormatRounded(*change.slope) + " rad is outside [0, pi/2)");
   }
   if (!change.friction && !change.slope && !change.slope_direction) {
     throw Error(StatusCode::kInvalidArgument,
@@ -938,8 +932,8 @@ void RobotDriver::SetGround(const GroundChange& change) {
   slope_ = ground.slope;
   slope_direction_ = ground.slope_direction;
   PushEvent(StateEvent{.kind = "ground_changed",
-                       .detail = "friction " + Num(ground.friction) + ", slope " +
-                                 Num(slope_) + " rad towards " + Num(slope_direction_) + " rad"});
+                       .detail = "friction " + FormatRounded(ground.friction) + ", slope " +
+                                 FormatRounded(slope_) + " rad towards " + FormatRounded(slope_direction_) + " rad"});
 }
 
 void RobotDriver::TurnUpsideDown() {
@@ -958,7 +952,7 @@ void RobotDriver::ConnectModules(int from, snp::Connector from_connector, int to
   }
   const double steps = angle_degrees / 15.0;
   if (angle_degrees < 0.0 || angle_degrees >= 360.0 || std::fabs(steps - std::round(steps)) > 1e-9) {
-    throw Error(StatusCode::kInvalidArgument, "connection angle " + Num(angle_degrees) +
+    throw Error(StatusCode::kInvalidArgument, "connection angle " + FormatRounded(angle_degrees) +
                                                   " degrees is not a multiple of 15 in [0, 360)");
   }
   for (int id : {from, to}) {
@@ -1024,11 +1018,11 @@ void RobotDriver::RunTransformationScript(std::string_view xml, const CancelChec
 void RobotDriver::SetFreeRun(double real_time_factor) {
   if (!std::isfinite(real_time_factor)) {
     throw Error(StatusCode::kInvalidArgument,
-                "real-time factor is not finite: " + Num(real_time_factor));
+                "real-time factor is not finite: " + FormatRounded(real_time_factor));
   }
   if (real_time_factor < 0.0 || real_time_factor > 100.0) {
     throw Error(StatusCode::kOutOfRange,
-                "real-time factor " + Num(real_time_factor) + " is outside [0, 100]");
+                "real-time factor " + FormatRounded(real_time_factor) + " is outside [0, 100]");
   }
   Lock lock(mutex_);
   if (shutdown_) ThrowShutdown("SetFreeRun");

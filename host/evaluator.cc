@@ -5,6 +5,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/parameters.h"
@@ -23,28 +24,23 @@ constexpr double kMinTimeStep = 1e-5;
 constexpr double kMaxTimeStep = 0.02;
 constexpr int64_t kMaxSteps = 20'000'000;  // bounds the work one request can ask for
 
-std::string Num(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
-
 void CheckTiming(double value, std::string_view what, bool allow_zero) {
   if (!std::isfinite(value)) {
-    throw Error(StatusCode::kInvalidArgument, std::string(what) + " is not finite: " + Num(value));
+    throw Error(StatusCode::kInvalidArgument, std::string(what) + " is not finite: " + FormatRounded(value));
   }
   if (value < 0.0 || (!allow_zero && value == 0.0) || value > kMaxEvaluatedTime) {
-    throw Error(StatusCode::kOutOfRange, std::string(what) + " " + Num(value) + " s is outside " +
+    throw Error(StatusCode::kOutOfRange, std::string(what) + " " + FormatRounded(value) + " s is outside " +
                                              (allow_zero ? "[0, " : "(0, ") +
-                                             Num(kMaxEvaluatedTime) + "]");
+                                             FormatRounded(kMaxEvaluatedTime) + "]");
   }
 }
 
 // Runs a simulated robot of its own through SNP, exactly as the driver
 // would: the worker builds the backend and then knows it only by bytes.
-class Session {
+class EvaluationRobot {
  public:
-  Session(physics::Morphology morphology, const SimulationOptions& options, const IdMap& id_map)
+  EvaluationRobot(physics::Morphology morphology, const SimulationOptions& options,
+                  const IdMap& id_map)
       : backend_(MakeSimBackend(std::move(morphology), options)), link_(*backend_, id_map) {}
 
   // Sends the configuration (real ids) and checks every answer.
@@ -64,7 +60,7 @@ class Session {
           link_.BridgeRequest(snp::GetDivergence{}, snp::MessageType::kDivergence);
       const auto& d = std::get<snp::Divergence>(m);
       if (!d.diverged) throw;
-      divergence = d.reason + " at t = " + Num(d.time) + " s";
+      divergence = d.reason + " at t = " + FormatRounded(d.time) + " s";
       return false;
     }
   }
@@ -94,30 +90,30 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   }
   if (spec.trajectory_period < 0.0) {
     throw Error(StatusCode::kOutOfRange,
-                "trajectory period " + Num(spec.trajectory_period) + " s is negative");
+                "trajectory period " + FormatRounded(spec.trajectory_period) + " s is negative");
   }
   const double time_step =
       spec.time_step == 0.0 ? DefaultSimulationTimeStep() : spec.time_step;
   if (!std::isfinite(time_step)) {
-    throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + Num(time_step));
+    throw Error(StatusCode::kInvalidArgument, "time step is not finite: " + FormatRounded(time_step));
   }
   if (time_step < kMinTimeStep || time_step > kMaxTimeStep) {
-    throw Error(StatusCode::kOutOfRange, "time step " + Num(time_step) + " s is outside [" +
-                                             Num(kMinTimeStep) + ", " + Num(kMaxTimeStep) + "]");
+    throw Error(StatusCode::kOutOfRange, "time step " + FormatRounded(time_step) + " s is outside [" +
+                                             FormatRounded(kMinTimeStep) + ", " + FormatRounded(kMaxTimeStep) + "]");
   }
   auto steps_of = [&](double seconds) { return std::llround(seconds / time_step); };
   const int64_t warm_steps = steps_of(spec.warmup);
   const int64_t end_steps = steps_of(spec.warmup + spec.duration);
   if (end_steps > kMaxSteps) {
     throw Error(StatusCode::kOutOfRange,
-                "warm-up + duration of " + Num(spec.warmup + spec.duration) + " s at a step of " +
-                    Num(time_step) + " s is more than " + std::to_string(kMaxSteps) + " steps");
+                "warm-up + duration of " + FormatRounded(spec.warmup + spec.duration) + " s at a step of " +
+                    FormatRounded(time_step) + " s is more than " + std::to_string(kMaxSteps) + " steps");
   }
   const int64_t sample_every =
       spec.trajectory_period > 0.0 ? std::max<int64_t>(1, steps_of(spec.trajectory_period)) : 0;
   if (sample_every > 0 && static_cast<std::size_t>(end_steps / sample_every) > kMaxTrajectorySamples) {
     throw Error(StatusCode::kOutOfRange,
-                "trajectory period " + Num(spec.trajectory_period) + " s gives more than " +
+                "trajectory period " + FormatRounded(spec.trajectory_period) + " s gives more than " +
                     std::to_string(kMaxTrajectorySamples) + " samples");
   }
 
@@ -139,25 +135,25 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   const SimulationOptions options{.time_step = time_step,
                                   .seed = spec.seed,
                                   .master = spec.id_map.ToSim(config.master_id)};
-  Session session(spec.morphology, options, spec.id_map);
-  session.Configure(config);
+  EvaluationRobot robot(spec.morphology, options, spec.id_map);
+  robot.Configure(config);
 
   EvaluationResult result;
   const int64_t chunk = std::max<int64_t>(1, steps_of(kChunk));
-  RobotPose start_pose = session.Position();
+  RobotPose start_pose = robot.Position();
   result.final_pose = start_pose;
   if (sample_every > 0) result.trajectory.push_back({start_pose.time, start_pose.position});
   int64_t step = 0;
   while (step < end_steps) {
     if (cancel && cancel()) {
       throw Error(StatusCode::kCancelled,
-                  "evaluation cancelled at t = " + Num(static_cast<double>(step) * time_step) + " s");
+                  "evaluation cancelled at t = " + FormatRounded(static_cast<double>(step) * time_step) + " s");
     }
     int64_t next = std::min(end_steps, step + chunk);
     if (step < warm_steps) next = std::min(next, warm_steps);
     if (sample_every > 0) next = std::min(next, (step / sample_every + 1) * sample_every);
     std::string divergence;
-    if (!session.Step(next - step, time_step, divergence)) {
+    if (!robot.Step(next - step, time_step, divergence)) {
       result.diverged = true;
       result.divergence = divergence;
       result.velocity = 0.0;
@@ -169,7 +165,7 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     const bool at_warmup = step == warm_steps;
     const bool at_sample = sample_every > 0 && step % sample_every == 0;
     if (at_warmup || at_sample || step == end_steps) {
-      const RobotPose pose = session.Position();
+      const RobotPose pose = robot.Position();
       result.final_pose = pose;
       if (at_warmup) start_pose = pose;
       if (at_sample) result.trajectory.push_back({pose.time, pose.position});

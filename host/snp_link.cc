@@ -5,6 +5,7 @@
 #include <sstream>
 #include <utility>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "host/config_frames.h"
@@ -14,12 +15,6 @@ namespace {
 
 using snp::Address;
 using Clock = std::chrono::steady_clock;
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
 
 std::chrono::milliseconds ToMillis(double seconds) {
   return std::chrono::milliseconds(static_cast<int64_t>(std::ceil(std::max(0.0, seconds) * 1e3)));
@@ -145,7 +140,7 @@ snp::Message SnpLink::ModuleCall(int id, const snp::Message& message, snp::Messa
                 "module " + std::to_string(id) + " did not answer " +
                     std::string(snp::MessageTypeName(snp::TypeOf(message))) +
                     (backend_->IsSimulation() ? ""
-                                              : " within " + Num(options_.reply_timeout) + " s") +
+                                              : " within " + FormatRounded(options_.reply_timeout) + " s") +
                     " (is it linked? the robot may be half-configured)");
   }
   return *m;

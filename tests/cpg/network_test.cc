@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "common/status.h"
+#include "tests/support/code_of.h"
 
 // Counts heap allocations so the test can prove Step() does not allocate.
 namespace {
@@ -97,15 +98,7 @@ struct Damped {
   }
 };
 
-StatusCode CodeOf(const std::function<void()>& action, std::string* message = nullptr) {
-  try {
-    action();
-  } catch (const Error& error) {
-    if (message) *message = error.what();
-    return error.code();
-  }
-  return StatusCode::kOk;
-}
+using ::yamor::testing::CodeOf;
 
 // --------------------------------------------------------- amplitude/offset --
 

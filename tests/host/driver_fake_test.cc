@@ -7,6 +7,7 @@
 
 #include "common/status.h"
 #include "host/driver.h"
+#include "tests/support/code_of.h"
 #include "tests/host/fake_backend.h"
 #include "tests/host/test_util.h"
 
@@ -20,17 +21,7 @@ using testing::SmallConfig;
 using testing::ToBridge;
 using testing::ToModule;
 
-// Runs `call` and returns the code of the yamor::Error it throws (kOk if none).
-template <typename F>
-StatusCode CodeOf(F&& call, std::string* message = nullptr) {
-  try {
-    call();
-  } catch (const Error& e) {
-    if (message) *message = e.what();
-    return e.code();
-  }
-  return StatusCode::kOk;
-}
+using ::yamor::testing::CodeOf;
 
 class DriverFakeTest : public ::testing::Test {
  protected:

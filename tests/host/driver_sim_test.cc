@@ -14,6 +14,7 @@
 #include "host/worlds.h"
 #include "physics/script.h"
 #include "physics/world.h"
+#include "tests/support/code_of.h"
 #include "tests/host/test_util.h"
 
 namespace yamor::host {
@@ -21,16 +22,7 @@ namespace {
 
 using snp::Tristate;
 
-template <typename F>
-StatusCode CodeOf(F&& call, std::string* message = nullptr) {
-  try {
-    call();
-  } catch (const Error& e) {
-    if (message) *message = e.what();
-    return e.code();
-  }
-  return StatusCode::kOk;
-}
+using ::yamor::testing::CodeOf;
 
 double Horizontal(const RobotPose& a, const RobotPose& b) {
   return std::hypot(a.position[0] - b.position[0], a.position[1] - b.position[1]);

@@ -4,20 +4,12 @@
 #include "common/status.h"
 #include "host/id_map.h"
 #include "host/settings.h"
+#include "tests/support/code_of.h"
 
 namespace yamor::host {
 namespace {
 
-template <typename F>
-StatusCode CodeOf(F&& call, std::string* message = nullptr) {
-  try {
-    call();
-  } catch (const Error& e) {
-    if (message) *message = e.what();
-    return e.code();
-  }
-  return StatusCode::kOk;
-}
+using ::yamor::testing::CodeOf;
 
 TEST(SettingsTest, DefaultsAreTheThesisDaemon) {
   const Settings s;

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "common/status.h"
+#include "tests/support/code_of.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #include <sanitizer/lsan_interface.h>
@@ -23,15 +24,7 @@ const std::string kWorlds = std::string(YAMOR_SOURCE_DIR) + "/configs/worlds/";
 
 Morphology Load(const std::string& robot) { return Morphology::LoadFile(kWorlds + robot + ".xml"); }
 
-template <typename F>
-StatusCode CodeOf(F&& f) {
-  try {
-    f();
-  } catch (const Error& error) {
-    return error.code();
-  }
-  return StatusCode::kOk;
-}
+using ::yamor::testing::CodeOf;
 
 // Exact bitwise equality of doubles (NaN-safe, distinguishes -0.0).
 bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
