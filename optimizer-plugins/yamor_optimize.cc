@@ -28,6 +28,7 @@
 #include "optimizer-plugins/framework/host_pool.h"
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/plugin_loader.h"
+#include "optimizer-plugins/framework/progress.h"
 #include "optimizer-plugins/framework/run_setup.h"
 #include "optimizer-plugins/framework/session.h"
 
@@ -85,16 +86,6 @@ int ListPlugins(const std::vector<std::string>& dirs) {
   return 0;
 }
 
-std::string Duration(double seconds) {
-  if (!std::isfinite(seconds) || seconds < 0) return "?";
-  const long s = std::lround(seconds);
-  std::ostringstream out;
-  if (s >= 3600) out << s / 3600 << "h" << (s % 3600) / 60 << "m";
-  else if (s >= 60) out << s / 60 << "m" << s % 60 << "s";
-  else out << s << "s";
-  return out.str();
-}
-
 // One progress line over every running instance.
 std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, double elapsed) {
   long long done = 0, budget = 0;
@@ -117,42 +108,23 @@ std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, 
   line << " | best " << best_text;
   char rate_text[32];
   std::snprintf(rate_text, sizeof(rate_text), "%.2f", rate);
-  line << " | " << rate_text << " eval/s | elapsed " << Duration(elapsed);
-  if (rate > 0 && budget > done) line << " | at most " << Duration((budget - done) / rate) << " left";
+  line << " | " << rate_text << " eval/s | elapsed " << FormatDuration(elapsed);
+  if (const std::string left = RemainingEstimate(done, budget, elapsed); !left.empty()) {
+    line << " | " << left;
+  }
   if (!status.empty()) line << " | " << status;
   return line.str();
 }
 
-std::string FindPython(const std::string& source_dir) {
-  if (const char* env = std::getenv("YAMOR_PYTHON"); env != nullptr && *env) return env;
-  const fs::path venv = fs::path(source_dir) / ".venv/bin/python";
-  if (fs::exists(venv)) return venv.string();
-  return "python3";
-}
-
-std::string Quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') out += "'\\''";
-    else out += c;
-  }
-  return out + "'";
-}
-
-void PlotProgress(const std::string& out_dir, const std::string& title) {
+// Draws progress.png with the plot script of the installed layout (next to
+// this executable) or of the source tree; fails softly.
+void DrawProgress(const std::string& out_dir, const std::string& title) {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
   const std::string source_dir = YAMOR_SOURCE_DIR_FOR_TOOLS;
-  const std::string script = source_dir + "/tools/plot/plot_progress.py";
-  if (!fs::exists(script)) {
-    Log().warn("progress.png not drawn: {} is missing", script);
-    return;
-  }
-  const std::string command = Quote(FindPython(source_dir)) + " " + Quote(script) + " " +
-                              Quote(out_dir + "/evaluations.csv") + " " +
-                              Quote(out_dir + "/progress.png") + " --title " + Quote(title) +
-                              " >/dev/null 2>&1";
-  if (std::system(command.c_str()) != 0) {
-    Log().warn("progress.png not drawn ({} failed; is matplotlib installed? `make deps`)", script);
-  }
+  PlotProgress(out_dir, title,
+               FindScript("plot_progress.py", PlotScriptDirs(ec ? "" : self.string(), source_dir)),
+               FindPython(source_dir));
 }
 
 }  // namespace
@@ -305,7 +277,7 @@ int main(int argc, char** argv) {
     for (std::size_t i = 0; i < sessions.size(); ++i) {
       const SessionResult& r = results[i];
       if (!no_plot && r.evaluations > 0) {
-        PlotProgress(instance_dirs[i], plugin.name() + " on " + fs::path(config_path).filename().string() +
+        DrawProgress(instance_dirs[i], plugin.name() + " on " + fs::path(config_path).filename().string() +
                                            (batch_path.empty() ? "" : " (" + instances[i].name + ")"));
       }
       std::cout << "yamor-optimize: " << (batch_path.empty() ? "" : "[" + instances[i].name + "] ")

@@ -217,7 +217,10 @@ struct HostPool::Impl {
 
   // One Evaluate RPC. Every Call registered in Pump gets exactly one
   // OnEvaluated; a stale call's outcome is ignored (its work was re-queued
-  // or its batch is over).
+  // or its batch is over). Owned by running_calls_ until its callback
+  // retires it, then by retired_ until a pool thread (the supervisor or the
+  // destructor) drops it: a gRPC callback never holds the last reference to
+  // a ClientContext (see Retire).
   struct Call {
     HostState* host = nullptr;
     Work work;
@@ -229,6 +232,7 @@ struct HostPool::Impl {
   };
 
   // One health check: Health/Check, then GetInfo, under one deadline.
+  // Owned like a Call: by probes_, then by retired_.
   struct Probe {
     HostState* host = nullptr;
     grpc::ClientContext health_context;
@@ -274,15 +278,21 @@ struct HostPool::Impl {
   // held: starting an RPC may run a gRPC callback inline.
   void Pump();
   HostState* PickHostLocked();
-  void StartEvaluate(const std::shared_ptr<Call>& call);
-  void OnEvaluated(const std::shared_ptr<Call>& call, const grpc::Status& status);
+  void StartEvaluate(Call* call);
+  void OnEvaluated(Call* call, const grpc::Status& status);
   void Supervise();
-  void StartProbe(const std::shared_ptr<Probe>& probe);
-  void OnHealthChecked(const std::shared_ptr<Probe>& probe, const grpc::Status& status);
-  void FinishProbe(const std::shared_ptr<Probe>& probe, bool ok, int capacity,
-                   const std::string& error);
-  // Called last by every callback: the destructor waits for outstanding_ 0.
-  void ReleaseOutstanding();
+  void StartProbe(Probe* probe);
+  void OnHealthChecked(Probe* probe, const grpc::Status& status);
+  void FinishProbe(Probe* probe, bool ok, int capacity, const std::string& error);
+  // Called last by every callback chain, holding no reference to a gRPC
+  // object any more: moves the Call's or Probe's ownership to retired_ and
+  // releases outstanding_ (the destructor waits for 0). Nothing of the
+  // callback may run after it that touches the pool or drops a reference.
+  void Retire(Call* call);
+  void Retire(Probe* probe);
+  // Drops the retired calls and probes (their ClientContexts) on the
+  // calling pool thread; `lock` holds mu_ and is released meanwhile.
+  void ReapLocked(std::unique_lock<std::mutex>& lock);
 
   void HostFailedLocked(HostState& host, const std::string& error, Work failed, CallList& cancel);
   void MarkDownLocked(HostState& host, const std::string& error, bool from_check);
@@ -300,7 +310,15 @@ struct HostPool::Impl {
   std::condition_variable cv_;  // any state change below
   std::deque<Work> pending_;                     // guarded by mu_
   std::set<std::shared_ptr<Batch>> batches_;     // active batches; guarded by mu_
-  std::set<std::shared_ptr<Probe>> probes_;      // running checks; guarded by mu_
+  // Every started Evaluate until its callback retires it; guarded by mu_.
+  std::map<const Call*, std::shared_ptr<Call>> running_calls_;
+  // Running checks until their callback chain retires them; guarded by mu_.
+  std::map<const Probe*, std::shared_ptr<Probe>> probes_;
+  // Finished calls and probes waiting to be dropped on a pool thread (never
+  // on a gRPC callback thread, where dropping the last ClientContext could
+  // outlive the pool and tear down a channel during process exit); guarded
+  // by mu_.
+  std::vector<std::shared_ptr<void>> retired_;
   uint64_t next_sequence_ = 0;                   // guarded by mu_
   std::size_t next_host_ = 0;                    // round-robin tie break; guarded by mu_
   int outstanding_ = 0;                          // RPC chains not yet finished; guarded by mu_
@@ -408,7 +426,7 @@ HostPool::Impl::~Impl() {
       }
       host->calls.clear();
     }
-    probes.assign(probes_.begin(), probes_.end());
+    for (const auto& [raw, probe] : probes_) probes.push_back(probe);
     cv_.notify_all();
   }
   for (const auto& call : cancel) call->context.TryCancel();
@@ -416,11 +434,17 @@ HostPool::Impl::~Impl() {
     probe->health_context.TryCancel();
     probe->info_context.TryCancel();
   }
+  cancel.clear();
+  probes.clear();
   {
     std::unique_lock lock(mu_);
     cv_.wait(lock, [this] { return outstanding_ == 0; });
   }
   supervisor_.join();
+  // Every callback has retired: the contexts go first, on this thread, then
+  // the stubs and channels (hosts_), so no gRPC thread ends a channel.
+  retired_.clear();
+  hosts_.clear();
 }
 
 std::vector<Evaluation> HostPool::Impl::EvaluateBatch(const std::vector<Candidate>& candidates) {
@@ -554,74 +578,102 @@ void HostPool::Impl::Pump() {
       call->context.set_deadline(DeadlineAfter(deadline_seconds_));
       ++host->in_flight;
       host->calls.insert(call);
+      running_calls_.emplace(call.get(), call);
       ++outstanding_;
       start.push_back(std::move(call));
     }
   }
-  for (const auto& call : start) StartEvaluate(call);
+  for (const auto& call : start) StartEvaluate(call.get());
 }
 
-void HostPool::Impl::StartEvaluate(const std::shared_ptr<Call>& call) {
+void HostPool::Impl::StartEvaluate(Call* call) {
   call->started = Clock::now();
+  // The callback captures no owning reference: running_calls_ owns the call.
   call->host->stub->async()->Evaluate(
       &call->context, &call->request, &call->response,
       [this, call](grpc::Status status) { OnEvaluated(call, status); });
 }
 
-void HostPool::Impl::OnEvaluated(const std::shared_ptr<Call>& call, const grpc::Status& status) {
-  CallList cancel;
+void HostPool::Impl::OnEvaluated(Call* raw, const grpc::Status& status) {
   {
-    std::lock_guard lock(mu_);
-    HostState& host = *call->host;
-    --host.in_flight;
-    if (!call->stale) {
-      host.calls.erase(call);
-      Batch& batch = *call->work.batch;
-      const std::size_t index = call->work.index;
-      if (status.ok()) {
-        YAMOR_CHECK(!batch.filled[index], "an evaluation slot was filled twice");
-        const v1::EvaluateResponse& r = call->response;
-        Evaluation& e = batch.results[index];
-        e.velocity = r.velocity();
-        e.distance = r.distance();
-        e.diverged = r.diverged();
-        e.divergence = r.divergence();
-        if (!std::isfinite(e.velocity) || !std::isfinite(e.distance)) {
-          e.velocity = 0.0;
-          e.distance = 0.0;
-          e.diverged = true;
-          e.divergence = "host " + host.name + " returned a non-finite velocity or distance";
+    CallList cancel;
+    {
+      std::lock_guard lock(mu_);
+      const std::shared_ptr<Call>& call = running_calls_.at(raw);
+      HostState& host = *call->host;
+      --host.in_flight;
+      if (!call->stale) {
+        host.calls.erase(call);
+        Batch& batch = *call->work.batch;
+        const std::size_t index = call->work.index;
+        if (status.ok()) {
+          YAMOR_CHECK(!batch.filled[index], "an evaluation slot was filled twice");
+          const v1::EvaluateResponse& r = call->response;
+          Evaluation& e = batch.results[index];
+          e.velocity = r.velocity();
+          e.distance = r.distance();
+          e.diverged = r.diverged();
+          e.divergence = r.divergence();
+          if (!std::isfinite(e.velocity) || !std::isfinite(e.distance)) {
+            e.velocity = 0.0;
+            e.distance = 0.0;
+            e.diverged = true;
+            e.divergence = "host " + host.name + " returned a non-finite velocity or distance";
+          }
+          e.host = host.name;
+          e.wall_seconds = r.wall_seconds() > 0
+                               ? r.wall_seconds()
+                               : std::chrono::duration<double>(Clock::now() - call->started).count();
+          batch.filled[index] = 1;
+          --batch.remaining;
+          ++host.completed;
+          host.backoff = 0;
+        } else if (IsCallerError(status.error_code())) {
+          FinishBatchLocked(batch,
+                            Error(static_cast<StatusCode>(status.error_code()),
+                                  "host " + host.name + " refused candidate " +
+                                      FormatCandidate((*batch.candidates)[index]) + ": " +
+                                      status.error_message()),
+                            cancel);
+        } else {
+          HostFailedLocked(host, Describe(status), std::move(call->work), cancel);
         }
-        e.host = host.name;
-        e.wall_seconds = r.wall_seconds() > 0
-                             ? r.wall_seconds()
-                             : std::chrono::duration<double>(Clock::now() - call->started).count();
-        batch.filled[index] = 1;
-        --batch.remaining;
-        ++host.completed;
-        host.backoff = 0;
-      } else if (IsCallerError(status.error_code())) {
-        FinishBatchLocked(batch,
-                          Error(static_cast<StatusCode>(status.error_code()),
-                                "host " + host.name + " refused candidate " +
-                                    FormatCandidate((*batch.candidates)[index]) + ": " +
-                                    status.error_message()),
-                          cancel);
-      } else {
-        HostFailedLocked(host, Describe(status), std::move(call->work), cancel);
       }
+      cv_.notify_all();
     }
-    cv_.notify_all();
-  }
-  for (const auto& c : cancel) c->context.TryCancel();
+    for (const auto& c : cancel) c->context.TryCancel();
+  }  // the references in `cancel` are dropped before the call retires
   Pump();
-  ReleaseOutstanding();
+  Retire(raw);
 }
 
-void HostPool::Impl::ReleaseOutstanding() {
+void HostPool::Impl::Retire(Call* call) {
   std::lock_guard lock(mu_);
+  const auto it = running_calls_.find(call);
+  YAMOR_CHECK(it != running_calls_.end(), "an Evaluate call finished twice");
+  retired_.push_back(std::move(it->second));
+  running_calls_.erase(it);
   --outstanding_;
   cv_.notify_all();
+}
+
+void HostPool::Impl::Retire(Probe* probe) {
+  std::lock_guard lock(mu_);
+  const auto it = probes_.find(probe);
+  YAMOR_CHECK(it != probes_.end(), "a health check finished twice");
+  retired_.push_back(std::move(it->second));
+  probes_.erase(it);
+  --outstanding_;
+  cv_.notify_all();
+}
+
+void HostPool::Impl::ReapLocked(std::unique_lock<std::mutex>& lock) {
+  if (retired_.empty()) return;
+  std::vector<std::shared_ptr<void>> dead;
+  dead.swap(retired_);
+  lock.unlock();
+  dead.clear();
+  lock.lock();
 }
 
 void HostPool::Impl::HostFailedLocked(HostState& host, const std::string& error, Work failed,
@@ -713,8 +765,10 @@ double HostPool::Impl::BackoffSeconds(int failures) const {
 void HostPool::Impl::Supervise() {
   std::unique_lock lock(mu_);
   while (!shutting_down_) {
+    ReapLocked(lock);
+    if (shutting_down_) break;
     const Clock::time_point now = Clock::now();
-    std::vector<std::shared_ptr<Probe>> start;
+    std::vector<Probe*> start;
     std::optional<Clock::time_point> wake;
     for (const auto& host : hosts_) {
       if (host->up || host->probing) continue;
@@ -729,19 +783,20 @@ void HostPool::Impl::Supervise() {
         probe->health_context.set_wait_for_ready(host->checked);
         probe->info_context.set_wait_for_ready(host->checked);
         host->probing = true;
-        probes_.insert(probe);
+        probes_.emplace(probe.get(), probe);
         ++outstanding_;
-        start.push_back(std::move(probe));
+        start.push_back(probe.get());
       } else if (!wake || host->next_check < *wake) {
         wake = host->next_check;
       }
     }
     if (!start.empty()) {
       lock.unlock();
-      for (const auto& probe : start) StartProbe(probe);
+      for (Probe* probe : start) StartProbe(probe);
       lock.lock();
       continue;
     }
+    // Any notify wakes it: a host marked down, a call or probe retired.
     if (wake) {
       cv_.wait_until(lock, *wake);
     } else {
@@ -750,7 +805,7 @@ void HostPool::Impl::Supervise() {
   }
 }
 
-void HostPool::Impl::StartProbe(const std::shared_ptr<Probe>& probe) {
+void HostPool::Impl::StartProbe(Probe* probe) {
   // HealthCheckRequest { service = "" }: the whole server; empty on the wire.
   grpc::Slice empty_message{std::string()};
   probe->health_request = grpc::ByteBuffer(&empty_message, 1);
@@ -760,8 +815,7 @@ void HostPool::Impl::StartProbe(const std::shared_ptr<Probe>& probe) {
       [this, probe](grpc::Status status) { OnHealthChecked(probe, status); });
 }
 
-void HostPool::Impl::OnHealthChecked(const std::shared_ptr<Probe>& probe,
-                                     const grpc::Status& status) {
+void HostPool::Impl::OnHealthChecked(Probe* probe, const grpc::Status& status) {
   if (status.ok()) {
     const int serving = ServingStatus(probe->health_response);
     if (serving != 1) {
@@ -782,11 +836,9 @@ void HostPool::Impl::OnHealthChecked(const std::shared_ptr<Probe>& probe,
       });
 }
 
-void HostPool::Impl::FinishProbe(const std::shared_ptr<Probe>& probe, bool ok, int capacity,
-                                 const std::string& error) {
+void HostPool::Impl::FinishProbe(Probe* probe, bool ok, int capacity, const std::string& error) {
   {
     std::lock_guard lock(mu_);
-    probes_.erase(probe);
     HostState& host = *probe->host;
     host.probing = false;
     if (!shutting_down_) {
@@ -803,7 +855,7 @@ void HostPool::Impl::FinishProbe(const std::shared_ptr<Probe>& probe, bool ok, i
     cv_.notify_all();
   }
   Pump();
-  ReleaseOutstanding();
+  Retire(probe);
 }
 
 // ---- HostPool ------------------------------------------------------------------------

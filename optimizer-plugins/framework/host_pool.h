@@ -91,7 +91,9 @@ struct HostStatus {
 /// Thread safety: every public method may be called from any thread at any
 /// time; concurrent EvaluateBatch calls share the hosts in FIFO order. The
 /// destructor must not run concurrently with other calls; it cancels and
-/// waits for every RPC still running.
+/// waits for every RPC still running, then releases every client context,
+/// stub and channel on its own thread (a gRPC callback thread never drops
+/// the last reference to one: issue 17's double free).
 class HostPool final : public Evaluator {
  public:
   /// Connects to `hosts` and health-checks each once (waiting at most about

@@ -135,10 +135,13 @@ LoadedPlugin LoadedPlugin::Load(const std::string& path) {
                    ", this yamor-optimize speaks version " +
                    std::to_string(YAMOR_OPTIMIZER_ABI_VERSION) + " (rebuild the plugin)");
   }
-  if (api->struct_size != sizeof(YamorOptimizerPlugin)) {
+  // Structs only grow at their end: at least version 1's fields, and only
+  // the fields this loader knows are read (a newer plugin's extra ones are not).
+  if (api->struct_size < YAMOR_OPTIMIZER_PLUGIN_V1_SIZE) {
     Fail(path, "declares a plugin struct of " + std::to_string(api->struct_size) +
-                   " bytes, expected " + std::to_string(sizeof(YamorOptimizerPlugin)) +
-                   " (built against a different header)");
+                   " bytes, smaller than ABI version 1's " +
+                   std::to_string(YAMOR_OPTIMIZER_PLUGIN_V1_SIZE) +
+                   " (built against a different or damaged header)");
   }
   plugin.name_ = Text(api->name);
   if (!ValidName(plugin.name_)) Fail(path, "has an invalid name '" + plugin.name_ + "'");

@@ -38,7 +38,9 @@ struct FieldSpec {
 class LoadedPlugin {
  public:
   /// Loads `path` with dlopen(RTLD_NOW | RTLD_LOCAL) and checks its entry
-  /// symbol, ABI version, struct size and fields. Throws yamor::Error
+  /// symbol, ABI version, struct size (at least YAMOR_OPTIMIZER_PLUGIN_V1_SIZE;
+  /// a larger struct from a newer header is accepted and its extra fields
+  /// ignored) and fields. Throws yamor::Error
   /// kFailedPrecondition naming the path with dlerror()'s text, or the ABI
   /// mismatch, or the malformed field.
   static LoadedPlugin Load(const std::string& path);

@@ -16,9 +16,17 @@
  * C++ plugins normally include yamor/optimizer_plugin.hpp instead, which
  * wraps this ABI in ordinary classes (see optimizer-plugins/powell/).
  *
- * Compatibility: a plugin built against ABI version N runs only on a loader
- * of version N. Structs only grow at their end; `struct_size` lets either
- * side tell which fields the other knows.
+ * Compatibility: `abi_version` changes only for an incompatible change; a
+ * plugin built against ABI version N runs only on a loader of version N.
+ * Within a version, structs only grow at their end, and `struct_size` (the
+ * writer's sizeof) tells the reader which fields the writer knows:
+ *  - a loader accepts a YamorOptimizerPlugin whose `struct_size` is at least
+ *    YAMOR_OPTIMIZER_PLUGIN_V1_SIZE (the fields of version 1) and reads only
+ *    the fields it knows; a larger struct from a newer header is accepted,
+ *    a smaller one is refused, naming both sizes;
+ *  - a plugin reads a YamorOptimizerContext field only if it lies within the
+ *    context's `struct_size` (never less than YAMOR_OPTIMIZER_CONTEXT_V1_SIZE;
+ *    the C++ wrapper refuses a smaller context with YAMOR_FAILED).
  *
  * Thread safety: `run` may be called concurrently from several threads
  * (batch start), each with its own context; a plugin keeps no mutable global
@@ -149,6 +157,17 @@ typedef struct YamorOptimizerPlugin {
    *  NUL-terminated message of at most `error_size` bytes to `error`. */
   int32_t (*run)(const YamorOptimizerContext* context, char* error, size_t error_size);
 } YamorOptimizerPlugin;
+
+/** Size of version 1's YamorOptimizerContext (up to `last_error`): the
+ *  smallest context a plugin accepts. */
+#define YAMOR_OPTIMIZER_CONTEXT_V1_SIZE                      \
+  (offsetof(YamorOptimizerContext, last_error) +             \
+   sizeof(((const YamorOptimizerContext*)0)->last_error))
+
+/** Size of version 1's YamorOptimizerPlugin (up to `run`): the smallest
+ *  plugin struct a loader accepts. */
+#define YAMOR_OPTIMIZER_PLUGIN_V1_SIZE                       \
+  (offsetof(YamorOptimizerPlugin, run) + sizeof(((const YamorOptimizerPlugin*)0)->run))
 
 /** The entry point's type: returns the plugin's static description. */
 typedef const YamorOptimizerPlugin* (*YamorOptimizerEntry)(void);

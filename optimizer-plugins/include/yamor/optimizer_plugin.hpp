@@ -39,8 +39,17 @@ class Stopped : public std::exception {
 /// only from the thread that entered Optimizer::Run.
 class Context {
  public:
-  /// Wraps the loader's context; `context` outlives this object.
-  explicit Context(const YamorOptimizerContext* context) : c_(context) {}
+  /// Wraps the loader's context; `context` outlives this object. Throws
+  /// std::invalid_argument for a missing context or one whose struct_size
+  /// is smaller than ABI version 1's (only fields within struct_size are read).
+  explicit Context(const YamorOptimizerContext* context) : c_(context) {
+    if (context == nullptr) throw std::invalid_argument("no plugin context");
+    if (context->struct_size < YAMOR_OPTIMIZER_CONTEXT_V1_SIZE) {
+      throw std::invalid_argument(
+          "plugin context struct_size " + std::to_string(context->struct_size) +
+          " is smaller than ABI version 1's " + std::to_string(YAMOR_OPTIMIZER_CONTEXT_V1_SIZE));
+    }
+  }
 
   /// Number of optimized parameters.
   std::size_t Dimension() const { return c_->parameter_count; }

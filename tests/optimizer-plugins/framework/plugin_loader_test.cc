@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/status.h"
+#include "yamor/optimizer_plugin.hpp"
 
 namespace yamor::optimizer {
 namespace {
@@ -46,9 +47,44 @@ TEST(PluginLoader, RejectsAWrongAbiVersion) {
   EXPECT_NE(e.find("wrong_version.so"), std::string::npos) << e;
 }
 
-TEST(PluginLoader, RejectsAWrongStructSize) {
+TEST(PluginLoader, RejectsAStructSmallerThanVersionOnes) {
   const std::string e = LoadError("wrong_size");
-  EXPECT_NE(e.find("bytes, expected"), std::string::npos) << e;
+  EXPECT_NE(e.find(std::to_string(YAMOR_OPTIMIZER_PLUGIN_V1_SIZE - 8) + " bytes"), std::string::npos)
+      << e;
+  EXPECT_NE(e.find("smaller than ABI version 1's " + std::to_string(YAMOR_OPTIMIZER_PLUGIN_V1_SIZE)),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("wrong_size.so"), std::string::npos) << e;
+}
+
+TEST(PluginLoader, AcceptsALargerStructFromANewerHeader) {
+  const LoadedPlugin p = LoadedPlugin::Load(TestPlugin("larger"));
+  EXPECT_GT(p.api().struct_size, YAMOR_OPTIMIZER_PLUGIN_V1_SIZE);
+  EXPECT_EQ(p.name(), "larger");
+  EXPECT_EQ(p.version(), "2");
+  ASSERT_NE(p.api().run, nullptr);
+  EXPECT_EQ(p.fields().size(), 1u) << "max_evaluations only";
+}
+
+// A plugin's side of the rule: the C++ wrapper refuses a context smaller
+// than version 1's instead of reading past its end.
+class NeverRuns : public yamor::plugin::Optimizer {
+ public:
+  void Run(yamor::plugin::Context&) override { ADD_FAILURE() << "ran with a short context"; }
+};
+
+TEST(PluginContext, ASmallerContextIsRefusedWithItsSize) {
+  YamorOptimizerContext context{};
+  context.abi_version = YAMOR_OPTIMIZER_ABI_VERSION;
+  context.struct_size = static_cast<uint32_t>(offsetof(YamorOptimizerContext, random));
+  char error[256] = "";
+  EXPECT_EQ(yamor::plugin::RunOptimizer<NeverRuns>(&context, error, sizeof(error)), YAMOR_FAILED);
+  EXPECT_NE(std::string(error).find("struct_size " + std::to_string(context.struct_size)),
+            std::string::npos)
+      << error;
+  EXPECT_NE(std::string(error).find(std::to_string(YAMOR_OPTIMIZER_CONTEXT_V1_SIZE)),
+            std::string::npos)
+      << error;
 }
 
 TEST(PluginLoader, ReportsAMissingSymbolWithDlerror) {

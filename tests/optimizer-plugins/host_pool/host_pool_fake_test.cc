@@ -194,6 +194,29 @@ TEST(HostPoolFakeTest, CallerErrorIsNotRetried) {
   ExpectScored(ok, EvaluateGuarded(pool, ok));
 }
 
+// A caller error while the batch's other calls are in flight, the pool
+// destroyed right after (issue 17: a double free in a gRPC thread at exit
+// under ASan). The in-flight calls are cancelled, so the destructor returns
+// at once instead of waiting for the hung calls' 30 s limit.
+TEST(HostPoolFakeTest, CallerErrorWithCallsInFlightThenDestroyed) {
+  FakeHost a;
+  a.capacity = 4;
+  a.hang_all = true;  // every call but the refused one waits until cancelled
+  FakeServer server(&a);
+  for (int round = 0; round < 10; ++round) {
+    std::vector<Candidate> batch = MakeCandidates(4, round);
+    batch[3].parameters.emplace_back("foo.1", 1.0);
+    auto pool = std::make_unique<HostPool>(std::vector<HostAddress>{server.address()}, Settings(),
+                                           FastRetry());
+    const Error e = BatchError(*pool, batch);
+    EXPECT_EQ(e.code(), StatusCode::kInvalidArgument) << e.what();
+    const auto start = Clock::now();
+    pool.reset();
+    EXPECT_LT(Clock::now() - start, seconds(10)) << "round " << round << ": the destructor waited";
+  }
+  EXPECT_EQ(a.refused, 10);
+}
+
 TEST(HostPoolFakeTest, AllHostsDownGivesUp) {
   PoolOptions options = FastRetry();
   options.health_timeout = 1;

@@ -35,7 +35,7 @@ extern "C" YAMOR_OPTIMIZER_EXPORT const YamorOptimizerPlugin* yamor_optimizer_pl
                                               "future", "9", "t", "d", 0, nullptr, &RunNothing};
   return &plugin;
 }
-#elif BROKEN_KIND == 2  // wrong struct size
+#elif BROKEN_KIND == 2  // a struct smaller than version 1's
 extern "C" YAMOR_OPTIMIZER_EXPORT const YamorOptimizerPlugin* yamor_optimizer_plugin(void) {
   static const YamorOptimizerPlugin plugin = {YAMOR_OPTIMIZER_ABI_VERSION, sizeof(YamorOptimizerPlugin) - 8,
                                               "small", "1", "t", "d", 0, nullptr, &RunNothing};
@@ -50,4 +50,16 @@ YAMOR_OPTIMIZER_PLUGIN(Throws, "badfield", "1", "t", "d", kBadFields)
 YAMOR_OPTIMIZER_PLUGIN(Throws, "throws", "1", "t", "d", kNoFields)
 #elif BROKEN_KIND == 6  // submits a point outside the bounds
 YAMOR_OPTIMIZER_PLUGIN(OutOfBounds, "outofbounds", "1", "t", "d", kNoFields)
+#elif BROKEN_KIND == 7  // a newer header's struct: version 1's fields and one more
+struct FuturePlugin {
+  YamorOptimizerPlugin v1;
+  uint64_t future_field;  // unknown to this loader: must not matter
+};
+extern "C" YAMOR_OPTIMIZER_EXPORT const YamorOptimizerPlugin* yamor_optimizer_plugin(void) {
+  static const FuturePlugin plugin = {
+      {YAMOR_OPTIMIZER_ABI_VERSION, sizeof(FuturePlugin), "larger", "2", "t", "d", 0, nullptr,
+       &RunNothing},
+      0xfeedfacecafebeefull};
+  return &plugin.v1;
+}
 #endif
