@@ -89,29 +89,31 @@ CamAppSample ParseCamAppSample(std::string_view line, int width, int height) {
   return s;
 }
 
+// The tracker's state. Thread-safety: the Asio objects and the stream state are
+// used on the I/O thread only; the members marked below are guarded by mutex_.
 struct LedTracker::Impl {
   Impl(CameraModel m, LedTrackerOptions o)
-      : model(std::move(m)),
-        options(std::move(o)),
-        name("led-tracker " + options.host + ":" + std::to_string(options.port)),
-        socket(io),
-        resolver(io),
-        timer(io) {}
+      : model_(std::move(m)),
+        options_(std::move(o)),
+        name_("led-tracker " + options_.host + ":" + std::to_string(options_.port)),
+        socket_(io_),
+        resolver_(io_),
+        timer_(io_) {}
 
   void Connect() {
-    buffer.clear();
-    hello_done = false;
-    resolver.async_resolve(options.host, std::to_string(options.port),
+    buffer_.clear();
+    hello_done_ = false;
+    resolver_.async_resolve(options_.host, std::to_string(options_.port),
                            [this](const boost::system::error_code& ec, tcp::resolver::results_type results) {
                              if (ec) return Fail("resolve: " + ec.message());
-                             timer.expires_after(std::chrono::duration_cast<Clock::duration>(
-                                 std::chrono::duration<double>(options.connect_timeout)));
-                             timer.async_wait([this](const boost::system::error_code& tec) {
-                               if (!tec) socket.close();  // connect timed out
+                             timer_.expires_after(std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(options_.connect_timeout)));
+                             timer_.async_wait([this](const boost::system::error_code& tec) {
+                               if (!tec) socket_.close();  // connect timed out
                              });
-                             asio::async_connect(socket, results,
+                             asio::async_connect(socket_, results,
                                                  [this](const boost::system::error_code& cec, const tcp::endpoint&) {
-                                                   timer.cancel();
+                                                   timer_.cancel();
                                                    if (cec) return Fail("connect: " + cec.message());
                                                    Read();
                                                  });
@@ -119,12 +121,12 @@ struct LedTracker::Impl {
   }
 
   void Read() {
-    asio::async_read_until(socket, asio::dynamic_buffer(buffer, kMaxLine), '\n',
+    asio::async_read_until(socket_, asio::dynamic_buffer(buffer_, kMaxLine), '\n',
                            [this](const boost::system::error_code& ec, std::size_t n) {
                              if (ec == asio::error::not_found) return Fail("line longer than 128 bytes");
                              if (ec) return Fail(ec == asio::error::eof ? "closed by the server" : ec.message());
-                             std::string line = buffer.substr(0, n - 1);
-                             buffer.erase(0, n);
+                             std::string line = buffer_.substr(0, n - 1);
+                             buffer_.erase(0, n);
                              if (!line.empty() && line.back() == '\r') line.pop_back();
                              try {
                                Handle(line);
@@ -137,109 +139,109 @@ struct LedTracker::Impl {
 
   void Handle(const std::string& line) {
     if (!line.empty() && line[0] == '#') return;
-    if (!hello_done) {
+    if (!hello_done_) {
       const auto f = SplitSpaces(line);
       if (f.size() != 4 || f[0] != "YAMOR-CAMAPP" || f[1] != "1") {
         throw BadLine("bad hello (expected \"YAMOR-CAMAPP 1 <width> <height>\")", line);
       }
       const int w = ParseUnsigned<int>(f[2], "width", line), h = ParseUnsigned<int>(f[3], "height", line);
-      const auto& lens = model.lens().params();
+      const auto& lens = model_.lens().params();
       if (w != lens.width || h != lens.height) {
         throw BadLine("image " + std::to_string(w) + "x" + std::to_string(h) + " but the calibration is for " +
                           std::to_string(lens.width) + "x" + std::to_string(lens.height), line);
       }
-      hello_done = true;
-      std::lock_guard lock(mutex);
-      connected = true;
-      ++connections;
-      Log().info("{}: connected", name);
+      hello_done_ = true;
+      std::lock_guard lock(mutex_);
+      connected_ = true;
+      ++connections_;
+      Log().info("{}: connected", name_);
       return;
     }
-    const auto& lens = model.lens().params();
+    const auto& lens = model_.lens().params();
     LedSample sample{ParseCamAppSample(line, lens.width, lens.height), Clock::now()};
-    std::lock_guard lock(mutex);
-    latest = sample;
+    std::lock_guard lock(mutex_);
+    latest_ = sample;
   }
 
   void Fail(const std::string& why) {
-    if (stopping) return;
+    if (stopping_) return;
     boost::system::error_code ignored;
-    socket.close(ignored);
+    socket_.close(ignored);
     {
-      std::lock_guard lock(mutex);
-      if (connected || why != last_error) Log().warn("{}: {}; reconnecting", name, why);
-      connected = false;
-      last_error = why;
+      std::lock_guard lock(mutex_);
+      if (connected_ || why != last_error_) Log().warn("{}: {}; reconnecting", name_, why);
+      connected_ = false;
+      last_error_ = why;
     }
-    timer.expires_after(std::chrono::duration_cast<Clock::duration>(
-        std::chrono::duration<double>(options.reconnect_delay)));
-    timer.async_wait([this](const boost::system::error_code& ec) {
-      if (!ec && !stopping) Connect();
+    timer_.expires_after(std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(options_.reconnect_delay)));
+    timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (!ec && !stopping_) Connect();
     });
   }
 
-  const CameraModel model;
-  const LedTrackerOptions options;
-  const std::string name;
+  const CameraModel model_;
+  const LedTrackerOptions options_;
+  const std::string name_;
 
-  // I/O thread only.
-  asio::io_context io;
-  tcp::socket socket;
-  tcp::resolver resolver;
-  asio::steady_timer timer;
-  std::string buffer;
-  bool hello_done = false;
-  bool stopping = false;  // set on the I/O thread by the destructor's post
-  std::thread thread;
+  // Used on the I/O thread only.
+  asio::io_context io_;
+  tcp::socket socket_;
+  tcp::resolver resolver_;
+  asio::steady_timer timer_;
+  std::string buffer_;
+  bool hello_done_ = false;
+  bool stopping_ = false;  // set on the I/O thread by the destructor's post
+  std::thread thread_;
 
-  mutable std::mutex mutex;
-  std::optional<LedSample> latest;   // guarded by mutex
-  bool connected = false;            // guarded by mutex
-  std::uint64_t connections = 0;     // guarded by mutex
-  std::string last_error = "not connected yet";  // guarded by mutex
+  mutable std::mutex mutex_;
+  std::optional<LedSample> latest_;   // guarded by mutex_
+  bool connected_ = false;            // guarded by mutex_
+  std::uint64_t connections_ = 0;     // guarded by mutex_
+  std::string last_error_ = "not connected yet";  // guarded by mutex_
 };
 
 LedTracker::LedTracker(CameraModel model, LedTrackerOptions options)
     : impl_(std::make_unique<Impl>(std::move(model), std::move(options))) {
-  if (impl_->options.port <= 0 || impl_->options.port > 65535) {
-    throw Error(StatusCode::kInvalidArgument, "led tracker: port " + std::to_string(impl_->options.port) +
+  if (impl_->options_.port <= 0 || impl_->options_.port > 65535) {
+    throw Error(StatusCode::kInvalidArgument, "led tracker: port " + std::to_string(impl_->options_.port) +
                                                   " is outside 1..65535");
   }
-  if (!(impl_->options.connect_timeout > 0) || !(impl_->options.reconnect_delay >= 0)) {
+  if (!(impl_->options_.connect_timeout > 0) || !(impl_->options_.reconnect_delay >= 0)) {
     throw Error(StatusCode::kInvalidArgument, "led tracker: connect_timeout must be > 0 and reconnect_delay >= 0");
   }
-  asio::post(impl_->io, [impl = impl_.get()] { impl->Connect(); });
-  impl_->thread = std::thread([impl = impl_.get()] { impl->io.run(); });
+  asio::post(impl_->io_, [impl = impl_.get()] { impl->Connect(); });
+  impl_->thread_ = std::thread([impl = impl_.get()] { impl->io_.run(); });
 }
 
 LedTracker::~LedTracker() {
-  asio::post(impl_->io, [impl = impl_.get()] {
-    impl->stopping = true;
+  asio::post(impl_->io_, [impl = impl_.get()] {
+    impl->stopping_ = true;
     boost::system::error_code ignored;
-    impl->timer.cancel();
-    impl->resolver.cancel();
-    impl->socket.close(ignored);
-    impl->io.stop();
+    impl->timer_.cancel();
+    impl->resolver_.cancel();
+    impl->socket_.close(ignored);
+    impl->io_.stop();
   });
-  impl_->thread.join();
+  impl_->thread_.join();
 }
 
-const std::string& LedTracker::name() const noexcept { return impl_->name; }
-const CameraModel& LedTracker::model() const noexcept { return impl_->model; }
+const std::string& LedTracker::name() const noexcept { return impl_->name_; }
+const CameraModel& LedTracker::model() const noexcept { return impl_->model_; }
 
 std::optional<LedSample> LedTracker::LatestSample() const {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->latest;
+  std::lock_guard lock(impl_->mutex_);
+  return impl_->latest_;
 }
 
 bool LedTracker::connected() const {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->connected;
+  std::lock_guard lock(impl_->mutex_);
+  return impl_->connected_;
 }
 
 std::uint64_t LedTracker::connections() const {
-  std::lock_guard lock(impl_->mutex);
-  return impl_->connections;
+  std::lock_guard lock(impl_->mutex_);
+  return impl_->connections_;
 }
 
 TrackedPosition LedTracker::LatestPosition(std::chrono::duration<double> max_age) const {
@@ -247,30 +249,30 @@ TrackedPosition LedTracker::LatestPosition(std::chrono::duration<double> max_age
   bool connected = false;
   std::string last_error;
   {
-    std::lock_guard lock(impl_->mutex);
-    latest = impl_->latest;
-    connected = impl_->connected;
-    last_error = impl_->last_error;
+    std::lock_guard lock(impl_->mutex_);
+    latest = impl_->latest_;
+    connected = impl_->connected_;
+    last_error = impl_->last_error_;
   }
   const std::string state = connected ? "connected" : "disconnected: " + last_error;
-  if (!latest) throw Error(StatusCode::kUnavailable, impl_->name + ": no sample received yet (" + state + ")");
+  if (!latest) throw Error(StatusCode::kUnavailable, impl_->name_ + ": no sample received yet (" + state + ")");
   const double age = std::chrono::duration<double>(Clock::now() - latest->arrival).count();
   if (age > max_age.count()) {
     std::ostringstream msg;
     msg.precision(3);
-    msg << impl_->name << ": the last sample (seq " << latest->sample.seq << ") is " << std::fixed << age
+    msg << impl_->name_ << ": the last sample (seq " << latest->sample.seq << ") is " << std::fixed << age
         << " s old, more than the " << max_age.count() << " s allowed (" << state << ")";
     throw Error(StatusCode::kUnavailable, msg.str());
   }
   if (!latest->sample.seen) {
     throw Error(StatusCode::kUnavailable,
-                impl_->name + ": LED not seen in the last frame (seq " + std::to_string(latest->sample.seq) + ")");
+                impl_->name_ + ": LED not seen in the last frame (seq " + std::to_string(latest->sample.seq) + ")");
   }
   TrackedPosition out;
   try {
-    out.ground = impl_->model.PixelToGround(latest->sample.pixel);
+    out.ground = impl_->model_.PixelToGround(latest->sample.pixel);
   } catch (const Error& e) {
-    throw Error(StatusCode::kUnavailable, impl_->name + ": " + e.what());
+    throw Error(StatusCode::kUnavailable, impl_->name_ + ": " + e.what());
   }
   out.pixel = latest->sample.pixel;
   out.seq = latest->sample.seq;

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 #include "common/status.h"
 
@@ -276,6 +277,22 @@ TEST(CalibrationFileTest, ParsesTheDocumentedFormat) {
   EXPECT_EQ(cal.points[4].pixel, Eigen::Vector2d(320.5, 240));
   const CameraModel model(cal, "cal.txt");
   EXPECT_NEAR(model.PixelToGround({320.5, 240}).norm(), 0, 0.05);
+}
+
+TEST(CalibrationFileTest, TheExampleInTheDocsLoads) {
+  std::ifstream in(std::string(YAMOR_SOURCE_DIR) + "/docs/camapp.md");
+  ASSERT_TRUE(in);
+  std::stringstream doc;
+  doc << in.rdbuf();
+  const std::string text = doc.str();
+  const size_t begin = text.find("# ceiling camera, lab B");
+  ASSERT_NE(begin, std::string::npos);
+  const size_t end = text.find("```", begin);
+  ASSERT_NE(end, std::string::npos);
+  const CameraModel model(ParseCameraCalibration(text.substr(begin, end - begin), "docs/camapp.md"),
+                          "docs/camapp.md");
+  EXPECT_EQ(model.fit().residuals.size(), 5u);
+  EXPECT_LT(model.fit().rms_error, 0.05);
 }
 
 TEST(CalibrationFileTest, FewerThanFourPointsNamesFileAndLines) {
