@@ -110,6 +110,26 @@ TEST(LensModelTest, InverseOfForwardWithin1e6PxOverTheWholeImage) {
   EXPECT_GT((lens.Undistort(corner) - centre).norm(), (corner - centre).norm() + 20);
 }
 
+TEST(LensModelTest, ForwardMatchesTheDocumentedFormula) {
+  LensParameters p;
+  p.fx = 500;
+  p.fy = 400;
+  p.cx = 300;
+  p.cy = 200;
+  p.k1 = 0.1;
+  p.k2 = 0.01;
+  p.k3 = 0.001;
+  p.p1 = 0.002;
+  p.p2 = 0.003;
+  const LensModel lens(p);
+  // By hand from docs/camapp.md: x = y = 0.2, r² = 0.08, radial = 1.008064512,
+  // x_d = 0.2016129024 + 0.00016 + 0.00048, y_d = 0.2016129024 + 0.00032 + 0.00024.
+  const Eigen::Vector2d raw = lens.Distort({400, 280});
+  EXPECT_NEAR(raw.x(), 401.1264512, 1e-9);
+  EXPECT_NEAR(raw.y(), 280.86916096, 1e-9);
+  EXPECT_LT((lens.Undistort({401.1264512, 280.86916096}) - Eigen::Vector2d(400, 280)).norm(), 1e-9);
+}
+
 TEST(LensModelTest, ForwardOfInverseRecoversIdealPixels) {
   const LensModel lens(RealisticLens());
   double worst = 0;
@@ -175,6 +195,23 @@ TEST(HomographyTest, ExactOnSyntheticCeilingCamera) {
   RecordProperty("max_ground_error_m", Sci(worst));
   EXPECT_LT(worst, 1e-9);
   EXPECT_LT(worst_px, 1e-6);
+}
+
+TEST(HomographyTest, WithoutDistortionCorrectionPositionsAreCentimetresOff) {
+  const SyntheticCamera cam;
+  const LensModel lens(cam.lens);
+  const CameraCalibration cal = SyntheticCalibration(cam, lens);
+  std::vector<Eigen::Vector2d> raw, ground;
+  for (const auto& p : cal.points) {
+    raw.push_back(p.pixel);
+    ground.push_back(p.ground);
+  }
+  const HomographyFit uncorrected = FitHomography(raw, ground);  // raw pixels, no lens
+  const CameraModel corrected(cal, "synthetic");
+  RecordProperty("uncorrected_rms_mm", Sci(uncorrected.rms_error * 1e3));
+  RecordProperty("uncorrected_max_mm", Sci(uncorrected.max_error * 1e3));
+  EXPECT_GT(uncorrected.max_error, 0.02);  // the reason the correction exists
+  EXPECT_LT(corrected.fit().max_error, 1e-9);
 }
 
 TEST(HomographyTest, FourPointsDetermineIt) {
