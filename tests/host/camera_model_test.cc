@@ -14,6 +14,8 @@
 #include <random>
 #include <sstream>
 
+#include <unistd.h>  // getpid
+
 #include "common/status.h"
 
 namespace yamor::host {
