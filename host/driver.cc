@@ -792,8 +792,14 @@ RobotPose RobotDriver::RobotPosition() {
   Lock lock(mutex_);
   Backend& backend = RequireBackendLocked("RobotPosition");
   if (!backend.IsSimulation()) {
-    throw Error(StatusCode::kUnimplemented,
-                "the position of a real robot needs the LED tracker, which is not available yet");
+    if (!options_.real_position) {
+      throw Error(StatusCode::kUnimplemented,
+                  "the position of a real robot needs the LED tracker: start yamord with "
+                  "--led-tracker HOST:PORT --tracker-calibration FILE (docs/camapp.md)");
+    }
+    RobotPose pose = options_.real_position(attached_at_);
+    pose.source = "led-tracker";
+    return pose;
   }
   CheckDivergedLocked();
   const snp::Message m =

@@ -43,6 +43,11 @@ using cpg::ModuleField;
 /// Long operations poll it between chunks and then throw CANCELLED.
 using CancelCheck = std::function<bool()>;
 
+/// The position of a real robot (the LED tracker): the central module's pose
+/// with its time in seconds since `epoch` (when the backend was attached).
+/// Throws yamor::Error (UNAVAILABLE for a stale or lost tracker).
+using RealPositionSource = std::function<RobotPose(std::chrono::steady_clock::time_point epoch)>;
+
 /// Fixed settings of a driver (from yamord's settings).
 struct DriverOptions {
   /// Real -> simulation ids, applied to every frame sent to a simulation.
@@ -63,6 +68,9 @@ struct DriverOptions {
   double sleep_chunk = 0.05;
   /// Longest Sleep [s].
   double max_sleep = 24.0 * 3600.0;
+  /// Where RobotPosition reads a real robot's position (yamord's LED
+  /// tracker); unset: UNIMPLEMENTED on a real robot.
+  RealPositionSource real_position;
   /// Wraps every backend the driver installs (OpenSimulation, AttachBackend),
   /// e.g. in a RecordingBackend for `yamord --record`; `attributes` describe
   /// it (backend, world, and for a simulation seed, time_step, master,
@@ -239,8 +247,9 @@ class RobotDriver {
   /// Virtual time in simulation; wall-clock seconds since the backend was
   /// attached otherwise.
   double ElapsedTime();
-  /// Pose of the central module (simulation only for now; the LED tracker
-  /// is a later issue: UNIMPLEMENTED on hardware).
+  /// Pose of the central module: the simulation's, or on a real robot the
+  /// LED tracker's (DriverOptions::real_position; UNIMPLEMENTED without one,
+  /// UNAVAILABLE when it is stale or lost: never a stale value).
   RobotPose RobotPosition();
   /// Servo angles of `ids` (all modules when empty), read over SNP.
   std::vector<std::pair<int, double>> GetServoAngles(const std::vector<int>& ids);

@@ -115,6 +115,10 @@ Settings ParseSettingsToml(std::string_view text, std::string_view source) {
       s.master = static_cast<int>(GetInteger(source, node, key, 0, 254));
     } else if (key == "led_tracker") {
       s.led_tracker = GetString(source, node, key);
+    } else if (key == "tracker_calibration") {
+      s.tracker_calibration = GetString(source, node, key);
+    } else if (key == "tracker_max_age") {
+      s.tracker_max_age = GetNumber(source, node, key);
     } else if (key == "log_level") {
       s.log_level = GetString(source, node, key);
     } else if (key == "max_concurrent_calls") {
@@ -181,6 +185,10 @@ void ValidateSettings(const Settings& s) {
   if (!(s.link_timeout > 0.0 && s.link_timeout <= 120.0)) {
     throw Error(StatusCode::kOutOfRange, "link_timeout must be in (0, 120] s");
   }
+  if (!(s.tracker_max_age > 0.0 && s.tracker_max_age <= 60.0)) {
+    throw Error(StatusCode::kOutOfRange, "tracker_max_age " + FormatDouble(s.tracker_max_age) +
+                                             " s is outside (0, 60]");
+  }
   if (s.link_retries < 0 || s.link_retries > 10) {
     throw Error(StatusCode::kOutOfRange,
                 "link_retries " + std::to_string(s.link_retries) + " is outside 0..10");
@@ -235,6 +243,8 @@ std::string SettingsToToml(const Settings& s) {
     out << "# master = 4  # unset: the configuration's master node\n";
   }
   out << "led_tracker = " << Quote(s.led_tracker) << "\n";
+  out << "tracker_calibration = " << Quote(s.tracker_calibration) << "\n";
+  out << "tracker_max_age = " << toml::value<double>(s.tracker_max_age) << "\n";
   out << "log_level = " << Quote(s.log_level) << "\n";
   out << "max_concurrent_calls = " << s.max_concurrent_calls << "\n";
   out << "link_timeout = " << toml::value<double>(s.link_timeout) << "\n";

@@ -29,7 +29,9 @@ struct Settings {
   unsigned workers = 0;      ///< Evaluate worker threads; 0 = the core count.
   std::string id_map;        ///< Real -> simulation ids, "real:sim,real:sim".
   std::optional<int> master; ///< Expected master node (0..254).
-  std::string led_tracker;   ///< LED tracker HOST:PORT (stored; used by a later issue).
+  std::string led_tracker;   ///< LED tracker (CamApp) HOST:PORT; "" = none (docs/camapp.md).
+  std::string tracker_calibration;  ///< Camera calibration file of the LED tracker.
+  double tracker_max_age = 0.5;     ///< Oldest tracker sample RobotPosition accepts [s].
   std::string log_level = "info";      ///< trace, debug, info, warn, error, critical, off.
   unsigned max_concurrent_calls = 64;  ///< Calls served at once; more get RESOURCE_EXHAUSTED.
   double link_timeout = 2.0;           ///< ConnectRobot per-link timeout [s].

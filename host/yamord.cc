@@ -16,6 +16,8 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <charconv>
+#include <chrono>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -30,6 +32,7 @@
 #include "host/driver.h"
 #include "host/evaluator.h"
 #include "host/id_map.h"
+#include "host/led_tracker.h"
 #include "host/serial_backend.h"
 #include "host/recording_backend.h"
 #include "host/service.h"
@@ -40,6 +43,7 @@ namespace {
 
 using namespace yamor;
 using namespace yamor::host;
+using Clock = std::chrono::steady_clock;
 
 int Run(int argc, char** argv, const sigset_t& signals) {
   CLI::App app{"yamord: the YaMoR host daemon (gRPC API yamor.v1.Host)", "yamord"};
@@ -80,7 +84,12 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   auto* id_map = app.add_option("--id-map", flags.id_map, "Real:simulation ids, e.g. 0:10,1:11");
   auto* master = app.add_option("--master", master_id, "Master node id (0..254)")
                      ->check(CLI::Range(0, 254));
-  auto* led = app.add_option("--led-tracker", flags.led_tracker, "LED tracker HOST:PORT (stored)");
+  auto* led = app.add_option("--led-tracker", flags.led_tracker,
+                             "LED tracker (CamApp, docs/camapp.md) HOST:PORT: a real robot's position");
+  auto* calibration = app.add_option("--tracker-calibration", flags.tracker_calibration,
+                                     "Camera calibration file of the LED tracker");
+  auto* max_age = app.add_option("--tracker-max-age", flags.tracker_max_age,
+                                 "Oldest tracker sample RobotPosition accepts [s]");
   auto* level = app.add_option("--log-level", flags.log_level,
                                "trace, debug, info, warn, error, critical, off");
   auto* calls = app.add_option("--max-concurrent-calls", flags.max_concurrent_calls,
@@ -120,6 +129,8 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   if (id_map->count()) settings.id_map = flags.id_map;
   if (master->count()) settings.master = master_id;
   if (led->count()) settings.led_tracker = flags.led_tracker;
+  if (calibration->count()) settings.tracker_calibration = flags.tracker_calibration;
+  if (max_age->count()) settings.tracker_max_age = flags.tracker_max_age;
   if (level->count()) settings.log_level = flags.log_level;
   if (calls->count()) settings.max_concurrent_calls = flags.max_concurrent_calls;
   if (link_timeout->count()) settings.link_timeout = flags.link_timeout;
@@ -148,6 +159,43 @@ int Run(int argc, char** argv, const sigset_t& signals) {
                                .link_timeout = settings.link_timeout,
                                .link_retries = settings.link_retries,
                                .reply_timeout = settings.reply_timeout};
+  std::shared_ptr<LedTracker> tracker;
+  if (!settings.led_tracker.empty()) {
+    // The real robot's position (thesis 5.1.2): pixels from CamApp, corrected
+    // and mapped to metres with the calibration (docs/camapp.md).
+    if (settings.tracker_calibration.empty()) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "--led-tracker " + settings.led_tracker +
+                      " needs --tracker-calibration FILE (the camera model, docs/camapp.md)");
+    }
+    LedTrackerOptions tracker_options;
+    const auto colon = settings.led_tracker.rfind(':');
+    int port = 0;
+    if (colon != std::string::npos) {
+      const std::string digits = settings.led_tracker.substr(colon + 1);
+      const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), port);
+      if (ec != std::errc() || end != digits.data() + digits.size()) port = 0;
+    }
+    if (colon == std::string::npos || colon == 0 || port < 1 || port > 65535) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "--led-tracker '" + settings.led_tracker + "' is not HOST:PORT");
+    }
+    tracker_options.host = settings.led_tracker.substr(0, colon);
+    tracker_options.port = port;
+    tracker = std::make_shared<LedTracker>(LoadCameraModel(settings.tracker_calibration),
+                                           tracker_options);
+    const double led_height = tracker->model().led_height();
+    const auto max_age = std::chrono::duration<double>(settings.tracker_max_age);
+    driver_options.real_position = [tracker, led_height, max_age](Clock::time_point epoch) {
+      const TrackedPosition tracked = tracker->LatestPosition(max_age);
+      return RobotPose{
+          .time = std::chrono::duration<double>(tracked.arrival - epoch).count(),
+          .position = {tracked.ground.x(), tracked.ground.y(), led_height},
+          .source = "led-tracker"};
+    };
+    Log().info("LED tracker {} with calibration {}", tracker->name(),
+               settings.tracker_calibration);
+  }
   if (!settings.record.empty()) {
     // One file for the daemon's life; each backend the driver opens (the
     // world at start, every OpenSimulation) starts a session in it.
@@ -176,9 +224,6 @@ int Run(int argc, char** argv, const sigset_t& signals) {
                                          .world_name = resolved.name,
                                          .config = std::nullopt,
                                          .seed = settings.seed});
-  }
-  if (!settings.led_tracker.empty()) {
-    Log().info("LED tracker {} noted (tracking is not implemented yet)", settings.led_tracker);
   }
 
   WorkerPool pool(settings.workers);

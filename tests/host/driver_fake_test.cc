@@ -286,6 +286,30 @@ TEST_F(DriverFakeTest, FreeRunSurvivesAnyExceptionStopsAndSaysWhy) {
   }
 }
 
+TEST_F(DriverFakeTest, ARealRobotsPositionComesFromTheTrackerNeverStale) {
+  std::string message;
+  Attach(/*simulation=*/false);
+  EXPECT_EQ(CodeOf([&] { driver_->RobotPosition(); }, &message), StatusCode::kUnimplemented);
+  EXPECT_NE(message.find("--led-tracker"), std::string::npos) << message;
+
+  bool lost = false;
+  DriverOptions options;
+  options.real_position = [&lost](std::chrono::steady_clock::time_point epoch) {
+    if (lost) throw Error(StatusCode::kUnavailable, "led-tracker 127.0.0.1:2225: sample 9 is 2 s old");
+    const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - epoch).count();
+    return RobotPose{.time = since, .position = {0.25, -0.5, 0.06}};
+  };
+  Attach(/*simulation=*/false, options);
+  const RobotPose pose = driver_->RobotPosition();
+  EXPECT_EQ(pose.source, "led-tracker");
+  EXPECT_EQ(pose.position, (std::array<double, 3>{0.25, -0.5, 0.06}));
+  EXPECT_GE(pose.time, 0.0) << "in seconds since the backend was attached";
+  EXPECT_LT(pose.time, 60.0);
+  lost = true;
+  EXPECT_EQ(CodeOf([&] { driver_->RobotPosition(); }, &message), StatusCode::kUnavailable);
+  EXPECT_NE(message.find("led-tracker"), std::string::npos) << message;
+}
+
 TEST_F(DriverFakeTest, ConnectRobotRefusesATreeNotRootedAtTheMasterSetting) {
   DriverOptions options;
   options.master = 2;

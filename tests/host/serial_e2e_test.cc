@@ -2,10 +2,13 @@
 // on a pseudo-terminal and on TCP, compared bit for bit with the in-process
 // backend; link faults (bridge killed mid-Sleep and restarted); and a peer
 // that answers like the real robot's modules and never like a bridge.
+#include <arpa/inet.h>
 #include <fcntl.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdlib.h>
+#include <sys/socket.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -409,6 +412,99 @@ TEST(SerialRealRobotTest, ALinkThatNeverAnswersTimesOutNamingTheFrameAndModule) 
   EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 5.0);
   v1::GetInfoResponse info;
   ASSERT_OK(d.Call(&v1::Host::Stub::GetInfo, Empty(), &info));  // the daemon lives on
+}
+
+// A CamApp stand-in on an ephemeral loopback port (docs/camapp.md): the
+// hello, then the LED at pixel (420, 340) every 20 ms until stopped.
+class FakeCamApp {
+ public:
+  FakeCamApp() {
+    listener_ = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t length = sizeof address;
+    if (bind(listener_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0 ||
+        listen(listener_, 4) != 0 ||
+        getsockname(listener_, reinterpret_cast<sockaddr*>(&address), &length) != 0) {
+      throw std::runtime_error("no listener");
+    }
+    port_ = ntohs(address.sin_port);
+    thread_ = std::thread([this] { Serve(); });
+  }
+  ~FakeCamApp() { Stop(); }
+  int port() const { return port_; }
+  // Stops sending (and closes the connection): the tracker goes stale.
+  void Stop() {
+    if (stop_.exchange(true)) return;
+    shutdown(listener_, SHUT_RDWR);
+    thread_.join();
+    close(listener_);
+  }
+
+ private:
+  void Serve() {
+    pollfd p{listener_, POLLIN, 0};
+    while (!stop_ && poll(&p, 1, 50) <= 0) {
+    }
+    if (stop_) return;
+    const int client = accept(listener_, nullptr, nullptr);
+    if (client < 0) return;
+    std::string text = "YAMOR-CAMAPP 1 640 480\n";
+    for (uint32_t seq = 1; !stop_; ++seq) {
+      text += std::to_string(seq) + " " + std::to_string(seq * 20000) + " 420 340\n";
+      if (send(client, text.data(), text.size(), MSG_NOSIGNAL) < 0) break;
+      text.clear();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    close(client);
+  }
+
+  int listener_ = -1;
+  int port_ = 0;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+TEST(SerialRealRobotTest, PositionComesFromTheLedTrackerAndAStaleTrackerIsUnavailable) {
+  // A camera without distortion: 5 mm per pixel about the image centre.
+  const std::filesystem::path dir = TempDir();
+  const std::string calibration = (dir / "camera.txt").string();
+  std::ofstream(calibration) << "image 640 480\nfocal 500 500\nprincipal 320 240\n"
+                                "led_height 0.06\n"
+                                "point 120 40 -1 -1\npoint 520 40 1 -1\n"
+                                "point 520 440 1 1\npoint 120 440 -1 1\npoint 320 240 0 0\n";
+  FakeCamApp camera;
+  FakeRealRobot robot(/*silent=*/false);
+  Daemon d({"--backend", "serial", "--device", robot.path(), "--led-tracker",
+            "127.0.0.1:" + std::to_string(camera.port()), "--tracker-calibration", calibration,
+            "--tracker-max-age", "0.3"});
+  ASSERT_GT(d.port, 0);
+  v1::RobotPositionResponse p;
+  grpc::Status s;
+  for (int i = 0; i < 100; ++i) {  // until the tracker has its first sample
+    s = d.Call(&v1::Host::Stub::RobotPosition, Empty(), &p);
+    if (s.ok()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_OK(s);
+  EXPECT_EQ(p.source(), "led-tracker");
+  EXPECT_NEAR(p.position().x(), 0.5, 1e-6);
+  EXPECT_NEAR(p.position().y(), 0.5, 1e-6);
+  EXPECT_DOUBLE_EQ(p.position().z(), 0.06);
+
+  camera.Stop();
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  s = d.Call(&v1::Host::Stub::RobotPosition, Empty(), &p);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAVAILABLE) << "never a stale value passed off";
+  EXPECT_NE(s.error_message().find("led-tracker 127.0.0.1"), std::string::npos)
+      << s.error_message();
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SerialRealRobotTest, ATrackerWithoutCalibrationIsAClearStartError) {
+  YamordProcess d(kYamord, {"--listen", "127.0.0.1:0", "--led-tracker", "127.0.0.1:2225"});
+  EXPECT_EQ(d.WaitForExit(std::chrono::seconds(20)), 2);
 }
 
 }  // namespace

@@ -47,6 +47,8 @@ config = "/etc/yamor/snake.xml"
 workers = 4
 master = 0
 led_tracker = "camapp:5000"
+tracker_calibration = "/etc/yamor/camera.txt"
+tracker_max_age = 0.25
 log_level = "debug"
 max_concurrent_calls = 8
 link_timeout = 0.5
@@ -81,6 +83,8 @@ record = "/var/log/yamor/session 1.rec"
   EXPECT_EQ(s.workers, 4u);
   EXPECT_EQ(s.master, 0);
   EXPECT_EQ(s.led_tracker, "camapp:5000");
+  EXPECT_EQ(s.tracker_calibration, "/etc/yamor/camera.txt");
+  EXPECT_DOUBLE_EQ(s.tracker_max_age, 0.25);
   EXPECT_EQ(s.log_level, "debug");
   EXPECT_EQ(s.max_concurrent_calls, 8u);
   EXPECT_DOUBLE_EQ(s.link_timeout, 0.5);
@@ -128,6 +132,7 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
       {"log_level = \"loud\"\n", "log_level 'loud'"},
       {"link_timeout = 0\n", "link_timeout"},
       {"link_retries = 11\n", "link_retries"},
+      {"tracker_max_age = 0\n", "tracker_max_age 0 s is outside (0, 60]"},
       {"\nrecord = 5\n", "test.toml:2: record must be a string"},
       {"[id_map]\n1 = 5\n2 = 5\n", "both map to simulation id 5"},
   };
