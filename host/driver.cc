@@ -141,6 +141,15 @@ void RobotDriver::InstallBackendLocked(std::unique_ptr<Backend> backend) {
   link_->SetReopenedHandler([this] { OnLinkReopenedLocked(); });  // called with mutex_ held
 }
 
+void RobotDriver::ReadSimInfoLocked() {
+  // What the simulation is, asked over the link like everything else.
+  const snp::Message m = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
+  const auto& info = std::get<snp::SimInfo>(m);
+  time_step_ = info.time_step;
+  accelerometer_zero_ = info.accelerometer_zero;
+  accelerometer_count_ = info.accelerometer_count;
+}
+
 void RobotDriver::OnLinkReopenedLocked() {
   if (connected_) relink_needed_ = true;
   connected_ = false;
@@ -282,11 +291,7 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
                              {"morphology", world_morphology_->ToXml()}});
   }
   InstallBackendLocked(std::move(backend));
-  accelerometer_zero_ = 512.0;
-  accelerometer_count_ = 0.0395;
-  const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
-  accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
-  accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
+  ReadSimInfoLocked();
   config_ = std::move(config);
   world_name_ = spec.world_name;
   ResetRobotStateLocked();
@@ -312,11 +317,7 @@ void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string wo
   accelerometer_zero_ = 512.0;
   accelerometer_count_ = 0.0395;
   if (backend_->IsSimulation()) {
-    // What the simulation is, asked over the link like everything else.
-    const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
-    time_step_ = std::get<snp::SimInfo>(info).time_step;
-    accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
-    accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
+    ReadSimInfoLocked();
     try {
       world_morphology_ = physics::Morphology::Parse(link_->ReadMorphologyXml(), world_name_);
     } catch (const Error& e) {
@@ -635,11 +636,7 @@ int RobotDriver::Refresh() {
 int RobotDriver::RestoreAfterReopenLocked() {
   Backend& backend = *backend_;
   if (backend.IsSimulation()) {
-    // A restarted bridge may run another world: ask again, as AttachBackend.
-    const snp::Message info = BridgeRequestLocked(snp::GetSimInfo{}, snp::MessageType::kSimInfo);
-    time_step_ = std::get<snp::SimInfo>(info).time_step;
-    accelerometer_zero_ = std::get<snp::SimInfo>(info).accelerometer_zero;
-    accelerometer_count_ = std::get<snp::SimInfo>(info).accelerometer_count;
+    ReadSimInfoLocked();  // a restarted bridge may run another world
     sim_time_ = std::get<snp::SimTime>(
                     BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime))
                     .seconds;

@@ -330,6 +330,8 @@ class RobotDriver {
   // Builds the bluetooth tree (SetMasterNode on a simulation, then each link
   // with its retries); counts into `result`.
   void LinkTreeLocked(double timeout, const CancelCheck& cancel, ConnectResult& result);
+  // Asks the simulation's time step and accelerometer scale (GetSimInfo).
+  void ReadSimInfoLocked();
   // SnpLink's reopened handler: the robot is no longer linked.
   void OnLinkReopenedLocked();
   // Refresh after a reopened link: link, configure, restore switches and defects.

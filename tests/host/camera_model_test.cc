@@ -16,6 +16,7 @@
 
 #include <unistd.h>  // getpid
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::host {
@@ -86,13 +87,6 @@ CameraCalibration SyntheticCalibration(const SyntheticCamera& cam, const LensMod
   return cal;
 }
 
-// A measured value for the test report, e.g. "3.2e-11".
-std::string Sci(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
-
 TEST(LensModelTest, InverseOfForwardWithin1e6PxOverTheWholeImage) {
   const LensModel lens(RealisticLens());
   double worst = 0;
@@ -105,7 +99,7 @@ TEST(LensModelTest, InverseOfForwardWithin1e6PxOverTheWholeImage) {
       }
     }
   }
-  RecordProperty("max_roundtrip_error_px", Sci(worst));
+  RecordProperty("max_roundtrip_error_px", FormatRounded(worst));
   EXPECT_LT(worst, 1e-6);
   // Barrel: the corner's ideal pixel lies farther from the centre than the raw one.
   const Eigen::Vector2d corner(0, 0), centre(322.5, 237.0);
@@ -194,7 +188,7 @@ TEST(HomographyTest, ExactOnSyntheticCeilingCamera) {
       worst_px = std::max(worst_px, (model.GroundToPixel({x, y}) - raw).norm());
     }
   }
-  RecordProperty("max_ground_error_m", Sci(worst));
+  RecordProperty("max_ground_error_m", FormatRounded(worst));
   EXPECT_LT(worst, 1e-9);
   EXPECT_LT(worst_px, 1e-6);
 }
@@ -210,8 +204,8 @@ TEST(HomographyTest, WithoutDistortionCorrectionPositionsAreCentimetresOff) {
   }
   const HomographyFit uncorrected = FitHomography(raw, ground);  // raw pixels, no lens
   const CameraModel corrected(cal, "synthetic");
-  RecordProperty("uncorrected_rms_mm", Sci(uncorrected.rms_error * 1e3));
-  RecordProperty("uncorrected_max_mm", Sci(uncorrected.max_error * 1e3));
+  RecordProperty("uncorrected_rms_mm", FormatRounded(uncorrected.rms_error * 1e3));
+  RecordProperty("uncorrected_max_mm", FormatRounded(uncorrected.max_error * 1e3));
   EXPECT_GT(uncorrected.max_error, 0.02);  // the reason the correction exists
   EXPECT_LT(corrected.fit().max_error, 1e-9);
 }
@@ -244,8 +238,8 @@ TEST(HomographyTest, ReprojectionErrorReportedForNoisyPoints) {
   // 0.5 px at 2.64 m / 520 px ≈ 2.5 mm per axis: RMS a few mm, never zero.
   EXPECT_GT(fit.rms_error, 0.5e-3);
   EXPECT_LT(fit.rms_error, 5e-3);
-  RecordProperty("noisy_rms_mm", Sci(fit.rms_error * 1e3));
-  RecordProperty("noisy_max_mm", Sci(fit.max_error * 1e3));
+  RecordProperty("noisy_rms_mm", FormatRounded(fit.rms_error * 1e3));
+  RecordProperty("noisy_max_mm", FormatRounded(fit.max_error * 1e3));
   // The averaged fit predicts true positions better than one noisy sample.
   double sum_true = 0;
   int n = 0;
@@ -258,7 +252,7 @@ TEST(HomographyTest, ReprojectionErrorReportedForNoisyPoints) {
     }
   }
   const double rms_true = std::sqrt(sum_true / n);
-  RecordProperty("noisy_fit_true_rms_mm", Sci(rms_true * 1e3));
+  RecordProperty("noisy_fit_true_rms_mm", FormatRounded(rms_true * 1e3));
   EXPECT_LT(rms_true, fit.rms_error);
 }
 

@@ -13,6 +13,7 @@
 #include <functional>
 #include <thread>
 
+#include "common/format.h"
 #include "common/status.h"
 
 namespace yamor::host {
@@ -101,13 +102,6 @@ LedTrackerOptions Options(unsigned short port) {
   return o;
 }
 
-// A measured value for the test report, e.g. "3.2e-11".
-std::string Sci(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
-
 TEST(CamAppLineTest, DecodesSamples) {
   const CamAppSample s = ParseCamAppSample("1041  83200000 321 240.5", 640, 480);
   EXPECT_EQ(s.seq, 1041u);
@@ -152,7 +146,7 @@ TEST(LedTrackerTest, DecodesAndCorrectsSamples) {
     EXPECT_EQ(p.camera_time_us, 1000u * seq);
     worst = std::max(worst, (p.ground - g).norm());
   }
-  RecordProperty("max_error_m", Sci(worst));
+  RecordProperty("max_error_m", FormatRounded(worst));
   EXPECT_LT(worst, 1e-6);  // pixels rounded to 1e-6 px
   EXPECT_TRUE(tracker.connected());
   EXPECT_EQ(tracker.connections(), 1u);
