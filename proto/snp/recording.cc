@@ -125,6 +125,10 @@ RecordAttributes ParseAttributes(const std::vector<std::string_view>& fields, st
   return attributes;
 }
 
+// Longest recording [s] (about 31 years): a bound that keeps every time's
+// text short and exact, so formatting never truncates it.
+constexpr double kMaxRecordingTime = 1e9;
+
 // Decimal seconds: digits, optionally '.' and digits.
 double ParseTime(std::string_view token) {
   std::size_t i = 0;
@@ -146,6 +150,10 @@ double ParseTime(std::string_view token) {
   if (!ok) {
     throw Error(StatusCode::kInvalidArgument,
                 "bad time '" + Excerpt(token) + "' (expected decimal seconds like 1.250000)");
+  }
+  if (value > kMaxRecordingTime) {
+    throw Error(StatusCode::kInvalidArgument,
+                "time '" + Excerpt(token) + "' is beyond the longest recording (1e9 s)");
   }
   return value;
 }
@@ -191,9 +199,9 @@ void CheckDirection(Direction direction, const Frame& frame) {
 }
 
 std::string FormatTime(double time) {
-  if (!std::isfinite(time) || time < 0.0) {
+  if (!std::isfinite(time) || time < 0.0 || time > kMaxRecordingTime) {
     throw Error(StatusCode::kInvalidArgument,
-                "recording time must be finite and >= 0, got " + std::to_string(time));
+                "recording time must be finite and in [0, 1e9] s, got " + std::to_string(time));
   }
   char buffer[64];
   std::snprintf(buffer, sizeof buffer, "%.6f", time);

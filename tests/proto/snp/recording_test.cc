@@ -156,6 +156,10 @@ TEST(RecordingFormatTest, MalformedLinesNameFileLineAndReason) {
   ExpectMalformed(kHeader + ok + "x.5 > A5\n", "rec.txt:3: bad time 'x.5'");
   ExpectMalformed(kHeader + ok + "-1.0 > A5\n", "rec.txt:3: bad time '-1.0'");
   ExpectMalformed(kHeader + ok + "1. > A5\n", "rec.txt:3: bad time '1.'");
+  // Found by recording_reader_fuzzer: a 100-digit time was truncated when
+  // written back; times are bounded instead.
+  ExpectMalformed(kHeader + ok + std::string(100, '8') + ".000300 > A5\n",
+                  "rec.txt:3: time '");
   ExpectMalformed(kHeader + ok + "0.050000 > A50801000305000080BF0000003F7BBE\n",
                   "rec.txt:3: time 0.050000 is before the previous line's 0.100000");
   ExpectMalformed(kHeader + ok + "0.200000 = A5\n", "rec.txt:3: bad direction '='");
