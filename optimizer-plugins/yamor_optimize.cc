@@ -29,6 +29,7 @@
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/plugin_loader.h"
 #include "optimizer-plugins/framework/progress.h"
+#include "optimizer-plugins/framework/resume.h"
 #include "optimizer-plugins/framework/run_setup.h"
 #include "optimizer-plugins/framework/session.h"
 
@@ -127,6 +128,22 @@ void DrawProgress(const std::string& out_dir, const std::string& title) {
                FindPython(source_dir));
 }
 
+// The command line as a shell would take it back (run.toml's info.command).
+std::string CommandLine(int argc, char** argv) {
+  std::string line;
+  for (int i = 0; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg.empty() || arg.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                             "0123456789_-.,:/=@+") != std::string::npos) {
+      std::string quoted = "'";
+      for (char c : arg) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      arg = quoted + "'";
+    }
+    line += (i == 0 ? "" : " ") + arg;
+  }
+  return line;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -135,6 +152,7 @@ int main(int argc, char** argv) {
       "Example: yamor-optimize --plugin powell --config configs/optimize/quadruped-7.xml "
       "--world quadruped --hosts 127.0.0.1:2224 --out results/run1"};
   std::string plugin_name, config_path, hosts_spec = "127.0.0.1:2224", out_dir, batch_path;
+  std::string resume_dir;
   std::string world, morphology_path, log_level = "info";
   std::vector<std::string> sets, plugin_dirs;
   std::uint64_t seed = 1, eval_seed = 0;
@@ -158,6 +176,9 @@ int main(int argc, char** argv) {
   app.add_option("--give-up-after", give_up_after,
                  "Fail when no host is reachable for this long while work waits [s]")->capture_default_str();
   app.add_option("--out", out_dir, "Results folder (evaluations.csv, best.xml, summary.json, progress.png)");
+  app.add_option("--resume", resume_dir,
+                 "Continue the killed run recorded in this results folder (same arguments; "
+                 "recorded evaluations are not run again)");
   app.add_flag("--no-plot", no_plot, "Do not draw progress.png");
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
@@ -171,6 +192,17 @@ int main(int argc, char** argv) {
 
     if (plugin_name.empty()) throw Error(StatusCode::kInvalidArgument, "--plugin is required (see --list-plugins)");
     if (config_path.empty()) throw Error(StatusCode::kInvalidArgument, "--config is required");
+    if (!resume_dir.empty()) {
+      if (!out_dir.empty() && fs::path(out_dir).lexically_normal() !=
+                                  fs::path(resume_dir).lexically_normal()) {
+        throw Error(StatusCode::kInvalidArgument,
+                    "--out " + out_dir + " and --resume " + resume_dir + " name different folders");
+      }
+      if (!fs::is_directory(resume_dir)) {
+        throw Error(StatusCode::kNotFound, "--resume " + resume_dir + ": no such results folder");
+      }
+      out_dir = resume_dir;
+    }
     if (out_dir.empty()) throw Error(StatusCode::kInvalidArgument, "--out is required");
     if (!(warmup >= 0 && duration > 0)) {
       throw Error(StatusCode::kInvalidArgument, "--warmup must be >= 0 and --duration > 0");
@@ -218,6 +250,7 @@ int main(int argc, char** argv) {
     // Field values are validated for every instance before any host works.
     std::vector<std::unique_ptr<Session>> sessions;
     std::vector<std::string> instance_dirs;
+    const RunIdentity identity = EvaluationIdentity(config, settings);
     HostPool pool(hosts, settings, pool_options);
     for (const BatchInstance& instance : instances) {
       std::map<std::string, std::string> instance_set = set;
@@ -227,7 +260,9 @@ int main(int argc, char** argv) {
       sessions.push_back(std::make_unique<Session>(
           plugin, problem, pool,
           SessionOptions{.label = instance.name, .seed = instance.seed, .set = instance_set,
-                         .out_dir = dir, .evaluator_description = host_list}));
+                         .out_dir = dir, .evaluator_description = host_list,
+                         .resume = !resume_dir.empty(), .identity = identity,
+                         .info = {{"command", CommandLine(argc, argv)}}}));
     }
     int up = 0;
     for (const auto& s : pool.Status()) up += s.up ? 1 : 0;
