@@ -114,6 +114,11 @@ std::vector<BatchInstance> ParseBatchToml(std::string_view text, const std::stri
           throw Error(StatusCode::kInvalidArgument, Where(path, value) + ": set must be a table");
         }
         for (const auto& [field, field_value] : *set) {
+          if (field.str().empty()) {
+            // `"" = 1` is valid TOML but names no field (batch_fuzzer's check).
+            throw Error(StatusCode::kInvalidArgument,
+                        Where(path, field_value) + ": set has an empty field name");
+          }
           instance.set[std::string(field.str())] = ValueText(path, std::string(field.str()), field_value);
         }
       } else {
