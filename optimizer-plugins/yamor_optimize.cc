@@ -162,7 +162,9 @@ int main(int argc, char** argv) {
   app.add_option("--plugin", plugin_name, "Plugin name (NAME.so in the plugin folders) or path to a .so");
   app.add_option("--plugin-dir", plugin_dirs, "Extra folder to look for plugins in (before the defaults)");
   app.add_option("--config", config_path, "Optimization configuration (robot + optimize/constrain rules)");
-  app.add_option("--hosts", hosts_spec, "yamord hosts: H:P,H:P or @FILE (one per line)")->capture_default_str();
+  app.add_option("--hosts", hosts_spec,
+                 "yamord hosts: H:P,H:P or @FILE (one per line; re-read when it changes)")
+      ->capture_default_str();
   app.add_option("--world", world, "Built-in world (morphology) the daemons simulate, e.g. quadruped; "
                                    "default: each daemon's own world");
   app.add_option("--morphology", morphology_path, "Morphology XML file sent to the daemons (overrides --world)");
@@ -252,6 +254,11 @@ int main(int argc, char** argv) {
     std::vector<std::string> instance_dirs;
     const RunIdentity identity = EvaluationIdentity(config, settings);
     HostPool pool(hosts, settings, pool_options);
+    // --hosts @FILE follows the file: hosts added join, hosts removed drain.
+    std::unique_ptr<HostListWatcher> host_file;
+    if (hosts_spec.front() == '@') {
+      host_file = std::make_unique<HostListWatcher>(hosts_spec.substr(1), pool);
+    }
     for (const BatchInstance& instance : instances) {
       std::map<std::string, std::string> instance_set = set;
       for (const auto& [k, v] : instance.set) instance_set[k] = v;
