@@ -56,7 +56,7 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
     // H.264 in 4:2:0 wants even sizes: an odd width or height gets one
     // more column or row.
     for (const char* a : {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-preset",
-                          "veryfast", "-crf", "20", "-pix_fmt", "yuv420p"}) {
+                          "ultrafast", "-crf", "20", "-pix_fmt", "yuv420p"}) {
       argv.emplace_back(a);
     }
     if (EndsWith(path_, ".mp4")) {
