@@ -14,7 +14,7 @@ namespace yamor::host {
 namespace {
 
 // The calling thread's renderer; UNAVAILABLE when the machine has none.
-render::Renderer& Renderer() { return render::ThreadRenderer(); }
+render::Renderer& ThisThreadRenderer() { return render::ThreadRenderer(); }
 
 EncodedFrame Encode(const render::Scene& scene, const FrameSpec& spec, render::Renderer& renderer,
                     bool fast) {
@@ -32,7 +32,7 @@ void ValidateFrameSpec(const FrameSpec& spec) {
 
 EncodedFrame RenderFrame(RobotDriver& driver, const FrameSpec& spec) {
   ValidateFrameSpec(spec);
-  render::Renderer& renderer = Renderer();  // before touching the robot
+  render::Renderer& renderer = ThisThreadRenderer();  // before touching the robot
   const render::Scene scene = driver.GetScene();
   return Encode(scene, spec, renderer, /*fast=*/false);
 }
@@ -69,7 +69,7 @@ void ValidateRecordSpec(const RecordSpec& spec) {
 void RecordFrames(RobotDriver& driver, const RecordSpec& spec,
                   const std::function<bool(EncodedFrame&&)>& sink, const CancelCheck& cancel) {
   ValidateRecordSpec(spec);
-  render::Renderer& renderer = Renderer();
+  render::Renderer& renderer = ThisThreadRenderer();
   const uint32_t count = RecordFrameCount(spec);
   const double period = 1.0 / spec.frame_rate;
 
