@@ -9,7 +9,10 @@
 
 #include "common/log.h"
 #include "common/status.h"
+#include "bridge/scene.h"
 #include "physics/module.h"
+#include "physics/render/snapshot.h"
+#include "proto/snp/scene.h"
 
 namespace yamor::bridge {
 namespace {
@@ -427,6 +430,27 @@ void Robot::HandleBridgeCommand(const snp::Message& message, std::vector<snp::Fr
             std::min<std::size_t>(m->length, morphology_snapshot_.size() - m->offset);
         chunk.data.assign(morphology_snapshot_.begin() + m->offset,
                           morphology_snapshot_.begin() + m->offset + n);
+      } else {
+        chunk.offset = chunk.total;  // at or past the end: an empty chunk at the end
+      }
+      reply(chunk);
+    } else if (const auto* m = std::get_if<snp::ReadScene>(&message)) {
+      if (m->offset == 0) {
+        // FAILED_PRECONDITION when diverged: no poses to show.
+        scene_snapshot_ = snp::EncodeSceneSnapshot(render::ToSnapshot(SceneOf(world_)));
+        has_scene_snapshot_ = true;
+      } else if (!has_scene_snapshot_) {
+        fail(StatusCode::kFailedPrecondition,
+             "ReadScene at offset " + std::to_string(m->offset) +
+                 " before a read at offset 0 took a snapshot");
+        return;
+      }
+      snp::SceneChunk chunk{.total = static_cast<uint32_t>(scene_snapshot_.size()),
+                            .offset = m->offset};
+      if (m->offset < scene_snapshot_.size()) {
+        const std::size_t n = std::min<std::size_t>(m->length, scene_snapshot_.size() - m->offset);
+        chunk.data.assign(scene_snapshot_.begin() + m->offset,
+                          scene_snapshot_.begin() + m->offset + n);
       } else {
         chunk.offset = chunk.total;  // at or past the end: an empty chunk at the end
       }

@@ -74,7 +74,8 @@ struct RobotStats {
 /// Broadcast module messages are applied by every reachable module and not
 /// acknowledged. Bridge commands (simulated time, step, timers, position,
 /// master node, connect/disconnect, reset, ground, motor and module defects,
-/// upside down, divergence, morphology readback, simulation facts; docs/snp.md)
+/// upside down, divergence, morphology and scene readback, simulation facts;
+/// docs/snp.md)
 /// are answered by the bridge.
 ///
 /// Thread-safety: not thread-safe. One owner thread drives a Robot; distinct
@@ -152,6 +153,8 @@ class Robot {
   double slope_direction_ = 0.0;  // its downhill azimuth [rad]
   std::string morphology_snapshot_;  // ReadMorphology's text (taken at offset 0)
   bool has_morphology_snapshot_ = false;
+  std::vector<uint8_t> scene_snapshot_;  // ReadScene's bytes (taken at offset 0)
+  bool has_scene_snapshot_ = false;
   std::multimap<double, uint8_t> timers_;  // due time -> timer id
   // Recent accelerometer samples per module whose UART is on, oldest first.
   std::map<int, std::deque<physics::AccelerometerReading>> accelerometer_history_;

@@ -15,6 +15,7 @@
 #include "host/config_frames.h"
 #include "host/sim_factory.h"
 #include "physics/orientation.h"
+#include "physics/render/snapshot.h"
 #include "physics/script.h"
 
 namespace yamor::host {
@@ -364,6 +365,14 @@ physics::Morphology RobotDriver::GetMorphology() const {
   const std::string source =
       world_morphology_ ? world_morphology_->source() : world_name_;
   return physics::Morphology::Parse(link.ReadMorphologyXml(), source);
+}
+
+render::Scene RobotDriver::GetScene() {
+  Lock lock(mutex_);
+  SnpLink& link = RequireSimulationLocked("GetScene");
+  CheckDivergedLocked();
+  const snp::SceneSnapshot snapshot = link.ReadScene();
+  return render::FromSnapshot(snapshot, [&link](int wire) { return link.Real(wire); });
 }
 
 // ---- Configuration ---------------------------------------------------------------

@@ -30,6 +30,7 @@
 #include "host/ticket_mutex.h"
 #include "cpg/parameters.h"
 #include "physics/morphology.h"
+#include "physics/render/scene.h"
 #include "proto/snp/messages.h"
 #include "proto/snp/recording.h"
 
@@ -212,6 +213,12 @@ class RobotDriver {
   /// the current body has no valid morphology; UNIMPLEMENTED on a backend
   /// without a simulated robot.
   physics::Morphology GetMorphology() const;
+  /// The world as it is now, for the renderer: every module's body and handle
+  /// pose with real ids, the shape, the slope (chunked ReadScene specials,
+  /// docs/snp.md; the robot lock is held only while reading).
+  /// FAILED_PRECONDITION without an open simulation or when the world is
+  /// diverged; UNIMPLEMENTED on a real robot.
+  render::Scene GetScene();
 
   // ---- Configuration (works with or without a backend) ------------------
 

@@ -10,6 +10,7 @@
 #include "common/log.h"
 #include "cpg/config_xml.h"
 #include "host/builtin_robots.h"
+#include "host/frames.h"
 #include "host/worlds.h"
 
 #ifndef YAMOR_VERSION
@@ -79,6 +80,40 @@ void SetPose(const RobotPose& pose, v1::Pose* out) {
   out->mutable_orientation()->set_x(pose.orientation[1]);
   out->mutable_orientation()->set_y(pose.orientation[2]);
   out->mutable_orientation()->set_z(pose.orientation[3]);
+}
+
+Eigen::Vector3d ToVector(const v1::Vector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
+
+render::Camera ToCamera(const v1::Camera& in) {
+  render::Camera camera;
+  switch (in.kind()) {
+    case v1::CAMERA_FOLLOW: camera.kind = render::CameraKind::kFollow; break;
+    case v1::CAMERA_FIXED: camera.kind = render::CameraKind::kFixed; break;
+    case v1::CAMERA_TOP: camera.kind = render::CameraKind::kTop; break;
+    default:
+      throw Error(StatusCode::kInvalidArgument,
+                  "camera kind " + std::to_string(static_cast<int>(in.kind())) +
+                      " is not FOLLOW, FIXED or TOP");
+  }
+  if (in.has_distance()) camera.distance = in.distance();
+  if (in.has_elevation()) camera.elevation = in.elevation();
+  if (in.has_azimuth()) camera.azimuth = in.azimuth();
+  if (in.has_eye()) camera.eye = ToVector(in.eye());
+  if (in.has_target()) camera.target = ToVector(in.target());
+  if (in.has_height()) camera.height = in.height();
+  camera.fov = in.fov();
+  return camera;
+}
+
+// A pixel count from the request (values beyond int stay out of range).
+int Pixels(uint32_t value) { return static_cast<int>(std::min<uint32_t>(value, 1u << 30)); }
+
+FrameSpec ToFrameSpec(const v1::Camera& camera, uint32_t width, uint32_t height, bool hide_labels,
+                      bool hide_legend) {
+  FrameSpec spec{.camera = ToCamera(camera), .width = Pixels(width), .height = Pixels(height)};
+  spec.options.labels = !hide_labels;
+  spec.options.legend = !hide_legend;
+  return spec;
 }
 
 // A guard that holds one of the service's in-flight slots.
@@ -527,6 +562,48 @@ grpc::Status HostServiceImpl::WatchState(grpc::ServerContext* context,
       if (!writer->Write(out)) break;  // the client went away
     }
     if (context->IsCancelled()) throw Error(StatusCode::kCancelled, "watch cancelled");
+  });
+}
+
+grpc::Status HostServiceImpl::RenderFrame(grpc::ServerContext* context,
+                                          const v1::RenderFrameRequest* request,
+                                          v1::RenderFrameResponse* response) {
+  return Serve(context, "RenderFrame", [&] {
+    const FrameSpec spec = ToFrameSpec(request->camera(), request->width(), request->height(),
+                                       request->hide_labels(), request->hide_legend());
+    EncodedFrame frame = host::RenderFrame(driver_, spec);
+    response->set_png(frame.png.data(), frame.png.size());
+    response->set_time(frame.time);
+  });
+}
+
+grpc::Status HostServiceImpl::RecordFrames(grpc::ServerContext* context,
+                                           const v1::RecordFramesRequest* request,
+                                           grpc::ServerWriter<v1::VideoFrame>* writer) {
+  return Serve(context, "RecordFrames", [&] {
+    const RecordSpec spec{
+        .frame = ToFrameSpec(request->camera(), request->width(), request->height(),
+                             request->hide_labels(), request->hide_legend()),
+        .frame_rate = request->frame_rate(),
+        .seconds = request->seconds(),
+        .advance = !request->watch()};
+    const CancelCheck cancel = CancelFor(context);
+    bool client_gone = false;
+    host::RecordFrames(
+        driver_, spec,
+        [&](EncodedFrame&& frame) {
+          v1::VideoFrame out;
+          out.set_index(frame.index);
+          out.set_time(frame.time);
+          out.set_png(frame.png.data(), frame.png.size());
+          if (!writer->Write(out)) client_gone = true;
+          return !client_gone && !stopping_;
+        },
+        cancel);
+    if (context->IsCancelled() || client_gone) {
+      throw Error(StatusCode::kCancelled, "recording cancelled");
+    }
+    if (stopping_) throw Error(StatusCode::kUnavailable, "yamord is shutting down");
   });
 }
 

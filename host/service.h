@@ -220,6 +220,14 @@ class HostServiceImpl final : public yamor::v1::Host::Service {
   /// The SetFreeRun RPC.
   grpc::Status SetFreeRun(grpc::ServerContext* context, const yamor::v1::SetFreeRunRequest* request,
                           google::protobuf::Empty* response) override;
+  /// The RenderFrame RPC.
+  grpc::Status RenderFrame(grpc::ServerContext* context,
+                           const yamor::v1::RenderFrameRequest* request,
+                           yamor::v1::RenderFrameResponse* response) override;
+  /// The RecordFrames RPC.
+  grpc::Status RecordFrames(grpc::ServerContext* context,
+                            const yamor::v1::RecordFramesRequest* request,
+                            grpc::ServerWriter<yamor::v1::VideoFrame>* writer) override;
 
  private:
   // Runs `body` under the in-flight cap, mapping every exception.

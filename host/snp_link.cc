@@ -204,47 +204,74 @@ void SnpLink::Configure(const cpg::RobotConfig& config) {
   }
 }
 
-std::string SnpLink::ReadMorphologyXml() {
+namespace {
+
+// The command and reply of one chunked snapshot read (ReadMorphology /
+// MorphologyChunk, ReadScene / SceneChunk: the same layout).
+template <class Request, class Chunk>
+struct ChunkedRead {
+  static constexpr uint32_t kChunk = static_cast<uint32_t>(snp::kMaxPayloadSize - 8);
+  static Request At(uint32_t offset) {
+    return Request{.offset = offset, .length = static_cast<uint8_t>(kChunk)};
+  }
+};
+
+}  // namespace
+
+template <class Request, class Chunk>
+std::vector<uint8_t> SnpLink::ReadChunked() {
   // The first read takes the snapshot and tells its size; the rest are
   // pipelined, kWindow requests ahead, so a slow line never idles between
   // chunks (the bridge answers in order).
   constexpr uint32_t kWindow = 4;
-  constexpr auto kChunk = static_cast<uint32_t>(snp::kMaxMorphologyChunkSize);
-  auto request = [](uint32_t offset) {
-    return snp::ReadMorphology{.offset = offset, .length = static_cast<uint8_t>(kChunk)};
-  };
-  std::string xml;
+  using Read = ChunkedRead<Request, Chunk>;
+  const std::string name(snp::MessageTypeName(Request::kType));
+  std::vector<uint8_t> bytes;
   uint32_t total = 0;
   uint32_t next_offset = 0;  // of the next request to send
   uint32_t in_flight = 0;
   do {
     if (next_offset == 0) {
-      SendBridgeCommand(request(0));
-      next_offset = kChunk;
+      SendBridgeCommand(Read::At(0));
+      next_offset = Read::kChunk;
       in_flight = 1;
     } else {
       while (in_flight < kWindow && next_offset < total) {
-        SendBridgeCommand(request(next_offset));
-        next_offset += kChunk;
+        SendBridgeCommand(Read::At(next_offset));
+        next_offset += Read::kChunk;
         ++in_flight;
       }
     }
-    const snp::Message m =
-        AwaitBridgeReply(snp::MessageType::kReadMorphology, snp::MessageType::kMorphologyChunk);
+    const snp::Message m = AwaitBridgeReply(Request::kType, Chunk::kType);
     --in_flight;
-    const auto& chunk = std::get<snp::MorphologyChunk>(m);
-    if (!xml.empty() && chunk.total != total) {
-      throw Error(StatusCode::kInternal, "ReadMorphology: the snapshot size changed");
+    const auto& chunk = std::get<Chunk>(m);
+    if (!bytes.empty() && chunk.total != total) {
+      throw Error(StatusCode::kInternal, name + ": the snapshot size changed");
     }
     total = chunk.total;
-    if (chunk.offset != xml.size() || (chunk.data.empty() && xml.size() < total)) {
-      throw Error(StatusCode::kInternal, "ReadMorphology: chunk at offset " +
+    if (chunk.offset != bytes.size() || (chunk.data.empty() && bytes.size() < total)) {
+      throw Error(StatusCode::kInternal, name + ": chunk at offset " +
                                              std::to_string(chunk.offset) + ", expected " +
-                                             std::to_string(xml.size()));
+                                             std::to_string(bytes.size()));
     }
-    xml.append(chunk.data.begin(), chunk.data.end());
-  } while (xml.size() < total);
-  return xml;
+    bytes.insert(bytes.end(), chunk.data.begin(), chunk.data.end());
+  } while (bytes.size() < total);
+  return bytes;
+}
+
+std::string SnpLink::ReadMorphologyXml() {
+  const std::vector<uint8_t> bytes = ReadChunked<snp::ReadMorphology, snp::MorphologyChunk>();
+  return std::string(bytes.begin(), bytes.end());
+}
+
+snp::SceneSnapshot SnpLink::ReadScene() {
+  const std::vector<uint8_t> bytes = ReadChunked<snp::ReadScene, snp::SceneChunk>();
+  try {
+    return snp::DecodeSceneSnapshot(bytes);
+  } catch (const Error& e) {
+    // The peer sent a snapshot its own codec should have refused.
+    throw Error(StatusCode::kInternal, std::string("ReadScene: ") + e.what());
+  }
 }
 
 }  // namespace yamor::host

@@ -13,6 +13,7 @@
 #include "host/backend.h"
 #include "host/id_map.h"
 #include "proto/snp/messages.h"
+#include "proto/snp/scene.h"
 
 namespace yamor::host {
 
@@ -71,6 +72,10 @@ class SnpLink {
   /// The current morphology XML, read with chunked ReadMorphology specials
   /// (pipelined: up to 4 requests in flight).
   std::string ReadMorphologyXml();
+  /// The scene snapshot (proto/snp/scene.h), read with chunked ReadScene
+  /// specials like ReadMorphologyXml; module ids in it stay wire ids.
+  /// FAILED_PRECONDITION (the bridge's) when the world is diverged.
+  snp::SceneSnapshot ReadScene();
 
  private:
   void Unsolicited(const snp::Frame& frame);
@@ -79,6 +84,9 @@ class SnpLink {
   // BridgeRequest in two halves, for pipelined reads.
   void SendBridgeCommand(const snp::Message& message);
   snp::Message AwaitBridgeReply(snp::MessageType command, snp::MessageType reply);
+  // A chunked snapshot read (ReadMorphology or ReadScene): the whole text.
+  template <class Request, class Chunk>
+  std::vector<uint8_t> ReadChunked();
   // Sends one frame; throws UNAVAILABLE when it went out on a reopened link.
   void SendFrame(const snp::Frame& frame);
 

@@ -49,6 +49,7 @@ const TypeInfo* Find(MessageType type) {
     YAMOR_SNP_TYPE(kGetDivergence, C::kBridgeCommand, Fixed(0))
     YAMOR_SNP_TYPE(kReadMorphology, C::kBridgeCommand, Fixed(5))
     YAMOR_SNP_TYPE(kGetSimInfo, C::kBridgeCommand, Fixed(0))
+    YAMOR_SNP_TYPE(kReadScene, C::kBridgeCommand, Fixed(5))
     YAMOR_SNP_TYPE(kSimTime, C::kBridgeReply, Fixed(8))
     YAMOR_SNP_TYPE(kStepDone, C::kBridgeReply, Fixed(8))
     YAMOR_SNP_TYPE(kTimerFired, C::kBridgeReply, Fixed(9))
@@ -59,6 +60,7 @@ const TypeInfo* Find(MessageType type) {
     YAMOR_SNP_TYPE(kDivergence, C::kBridgeReply, (PayloadSizeRule{10, 240, 1}))
     YAMOR_SNP_TYPE(kMorphologyChunk, C::kBridgeReply, (PayloadSizeRule{8, 240, 1}))
     YAMOR_SNP_TYPE(kSimInfo, C::kBridgeReply, Fixed(24))
+    YAMOR_SNP_TYPE(kSceneChunk, C::kBridgeReply, (PayloadSizeRule{8, 240, 1}))
 #undef YAMOR_SNP_TYPE
   }
   return nullptr;

@@ -41,6 +41,7 @@ enum class MessageType : uint8_t {
   kGetDivergence = 0x4C,      ///< Ask whether the world diverged (and why).
   kReadMorphology = 0x4D,     ///< Read a chunk of the current morphology XML.
   kGetSimInfo = 0x4E,         ///< Ask for the simulation's fixed facts.
+  kReadScene = 0x4F,          ///< Read a chunk of the scene snapshot (for rendering).
   // Bridge replies (0x60-0x7F): simulation bridge -> host only.
   kSimTime = 0x60,            ///< Reply: simulated time.
   kStepDone = 0x61,           ///< Reply: a Step finished.
@@ -52,6 +53,7 @@ enum class MessageType : uint8_t {
   kDivergence = 0x67,         ///< Reply: divergence state.
   kMorphologyChunk = 0x68,    ///< Reply: a chunk of the morphology XML.
   kSimInfo = 0x69,            ///< Reply: time step and accelerometer scale.
+  kSceneChunk = 0x6A,         ///< Reply: a chunk of the scene snapshot.
 };
 
 /// Who may send a message type to whom (enforced on encode and decode).
@@ -76,12 +78,13 @@ inline constexpr MessageType kAllMessageTypes[] = {
     MessageType::kSetGround,        MessageType::kSetMotorFault,
     MessageType::kSetModuleDefect,  MessageType::kTurnUpsideDown,
     MessageType::kGetDivergence,    MessageType::kReadMorphology,
-    MessageType::kGetSimInfo,
+    MessageType::kGetSimInfo,       MessageType::kReadScene,
     MessageType::kSimTime,          MessageType::kStepDone,
     MessageType::kTimerFired,       MessageType::kRobotPosition,
     MessageType::kSpecialAck,       MessageType::kSpecialError,
     MessageType::kGround,           MessageType::kDivergence,
     MessageType::kMorphologyChunk,  MessageType::kSimInfo,
+    MessageType::kSceneChunk,
 };
 
 /// Allowed payload sizes of a type: min..max in steps of `step` bytes.

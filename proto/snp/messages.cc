@@ -518,6 +518,12 @@ void Serialize(Io& io, M& m) {
   io.U8InRange(m.length, "length", 1, static_cast<uint8_t>(kMaxMorphologyChunkSize));
 }
 
+template <class Io, Is<ReadScene> M>
+void Serialize(Io& io, M& m) {
+  io.U32(m.offset, "offset");
+  io.U8InRange(m.length, "length", 1, static_cast<uint8_t>(kMaxSceneChunkSize));
+}
+
 template <class Io, Is<Ground> M>
 void Serialize(Io& io, M& m) {
   io.Float64(m.friction, "friction");
@@ -538,6 +544,17 @@ void Serialize(Io& io, M& m) {
   io.U32(m.total, "total");
   io.U32(m.offset, "offset");
   io.Bytes(m.data, "data", kMaxMorphologyChunkSize);
+  if (static_cast<uint64_t>(m.offset) + m.data.size() > m.total) {
+    FailField(io.type(), "data", "ends at {}, past the total of {} bytes",
+              static_cast<uint64_t>(m.offset) + m.data.size(), m.total);
+  }
+}
+
+template <class Io, Is<SceneChunk> M>
+void Serialize(Io& io, M& m) {
+  io.U32(m.total, "total");
+  io.U32(m.offset, "offset");
+  io.Bytes(m.data, "data", kMaxSceneChunkSize);
   if (static_cast<uint64_t>(m.offset) + m.data.size() > m.total) {
     FailField(io.type(), "data", "ends at {}, past the total of {} bytes",
               static_cast<uint64_t>(m.offset) + m.data.size(), m.total);

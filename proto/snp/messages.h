@@ -67,6 +67,8 @@ inline constexpr uint8_t kNoModule = 255;
 inline constexpr std::size_t kMaxDivergenceTextSize = kMaxPayloadSize - 10;
 /// Most morphology bytes one MorphologyChunk carries.
 inline constexpr std::size_t kMaxMorphologyChunkSize = kMaxPayloadSize - 8;
+/// Most scene snapshot bytes one SceneChunk carries.
+inline constexpr std::size_t kMaxSceneChunkSize = kMaxPayloadSize - 8;
 
 /// "front", "rear", "left", "right", "top", "bottom" ("unknown" otherwise).
 std::string_view ConnectorName(Connector connector);
@@ -290,6 +292,15 @@ struct GetSimInfo {
   friend bool operator==(const GetSimInfo&, const GetSimInfo&) = default;
 };
 
+/// Asks for `length` bytes of the scene snapshot (proto/snp/scene.h) from
+/// `offset` (offset 0 takes a new snapshot). Answered with SceneChunk.
+struct ReadScene {
+  static constexpr MessageType kType = MessageType::kReadScene;  ///< Type code.
+  uint32_t offset = 0;  ///< First byte wanted.
+  uint8_t length = 0;   ///< Bytes wanted (1..232).
+  friend bool operator==(const ReadScene&, const ReadScene&) = default;
+};
+
 // ---- Bridge replies (bridge -> host) ----------------------------------------
 
 /// The simulated time.
@@ -376,6 +387,15 @@ struct SimInfo {
   friend bool operator==(const SimInfo&, const SimInfo&) = default;
 };
 
+/// A chunk of the scene snapshot (the bytes of EncodeSceneSnapshot).
+struct SceneChunk {
+  static constexpr MessageType kType = MessageType::kSceneChunk;  ///< Type code.
+  uint32_t total = 0;          ///< Size of the whole snapshot [bytes].
+  uint32_t offset = 0;         ///< Position of `data` in it.
+  std::vector<uint8_t> data;   ///< The bytes (offset + size <= total).
+  friend bool operator==(const SceneChunk&, const SceneChunk&) = default;
+};
+
 /// Any SNP message.
 using Message =
     std::variant<ConnectRequest, ConnectAck, Control, SetOscillator, SetLimits,
@@ -386,7 +406,7 @@ using Message =
                  SetModuleDefect, TurnUpsideDown, GetDivergence,
                  ReadMorphology, GetSimInfo, SimTime, StepDone, TimerFired,
                  RobotPosition, SpecialAck, SpecialError, Ground, Divergence,
-                 MorphologyChunk, SimInfo>;
+                 MorphologyChunk, SimInfo, ReadScene, SceneChunk>;
 
 /// The type code of `message`.
 MessageType TypeOf(const Message& message);

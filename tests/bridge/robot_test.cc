@@ -10,6 +10,8 @@
 
 #include "common/status.h"
 #include "cpg/config_xml.h"
+#include "bridge/scene.h"
+#include "physics/render/snapshot.h"
 #include "proto/snp/snp.h"
 
 namespace yamor::bridge {
@@ -518,6 +520,71 @@ TEST(BridgeSpecialsTest, MorphologyReadPastZeroNeedsASnapshot) {
   const auto error = SendExpect<snp::SpecialError>(
       robot, ToBridge(snp::ReadMorphology{.offset = 5, .length = 5}));
   EXPECT_EQ(error.code, StatusCode::kFailedPrecondition);
+}
+
+// Reads the whole scene snapshot with ReadScene chunks.
+snp::SceneSnapshot ReadWholeScene(Robot& robot) {
+  std::vector<uint8_t> bytes;
+  uint32_t total = 0;
+  do {
+    const auto chunk = SendExpect<snp::SceneChunk>(
+        robot, ToBridge(snp::ReadScene{.offset = static_cast<uint32_t>(bytes.size()),
+                                       .length = snp::kMaxSceneChunkSize}));
+    EXPECT_EQ(chunk.offset, bytes.size());
+    if (chunk.data.empty()) break;
+    total = chunk.total;
+    bytes.insert(bytes.end(), chunk.data.begin(), chunk.data.end());
+  } while (bytes.size() < total);
+  return snp::DecodeSceneSnapshot(bytes);
+}
+
+TEST(BridgeSpecialsTest, ReadSceneServesEveryModulePoseInChunks) {
+  Robot robot(SnakeMorphology());
+  robot.world().Step(100);
+  const snp::SceneSnapshot scene = ReadWholeScene(robot);
+  EXPECT_DOUBLE_EQ(scene.time, robot.Time());
+  ASSERT_EQ(scene.modules.size(), robot.world().ModuleIds().size());
+  ASSERT_GT(snp::EncodeSceneSnapshot(scene).size(), snp::kMaxSceneChunkSize);  // several chunks
+  EXPECT_EQ(scene.shape.size(), physics::ModuleBoxes().size());
+  for (const snp::SceneModule& m : scene.modules) {
+    const Eigen::Isometry3d body = robot.world().ModulePose(m.id);
+    const Eigen::Isometry3d handle = robot.world().HandlePose(m.id);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(m.body.position[i], body.translation()[i], 1e-6) << m.id;
+      EXPECT_NEAR(m.handle.position[i], handle.translation()[i], 1e-6) << m.id;
+    }
+    EXPECT_EQ((m.flags & snp::kSceneModuleCentral) != 0, m.id == robot.world().CentralModule());
+  }
+  // The same scene as bridge::SceneOf, through the snapshot.
+  const render::Scene direct = SceneOf(robot.world());
+  const render::Scene via = render::FromSnapshot(scene);
+  ASSERT_EQ(via.modules.size(), direct.modules.size());
+  EXPECT_TRUE(via.modules[2].body.position.isApprox(direct.modules[2].body.position, 1e-6));
+  EXPECT_EQ(via.Central()->id, direct.Central()->id);
+}
+
+TEST(BridgeSpecialsTest, ReadSceneLeavesPutAwayModulesOutAndShowsTheSlope) {
+  Robot robot(SnakeMorphology());
+  SendExpect<snp::SpecialAck>(robot, ToBridge(snp::DisconnectModule{.module = 8}));
+  SendExpect<snp::Ground>(robot, ToBridge(snp::SetGround{.slope = 0.2, .slope_direction = 1.0}));
+  const snp::SceneSnapshot scene = ReadWholeScene(robot);
+  for (const snp::SceneModule& m : scene.modules) EXPECT_NE(m.id, 8);
+  EXPECT_NEAR(scene.slope, 0.2, 1e-6);
+  EXPECT_NEAR(scene.slope_direction, 1.0, 1e-6);
+}
+
+TEST(BridgeSpecialsTest, ReadSceneOfADivergedWorldFailsAndPastZeroNeedsASnapshot) {
+  Robot robot(SnakeMorphology());
+  const auto early = SendExpect<snp::SpecialError>(
+      robot, ToBridge(snp::ReadScene{.offset = 5, .length = 5}));
+  EXPECT_EQ(early.code, StatusCode::kFailedPrecondition);
+  robot.world().InjectNonFiniteForTesting(3);
+  robot.world().Step();
+  ASSERT_TRUE(robot.world().Diverged());
+  const auto error = SendExpect<snp::SpecialError>(
+      robot, ToBridge(snp::ReadScene{.offset = 0, .length = 10}));
+  EXPECT_EQ(error.code, StatusCode::kFailedPrecondition);
+  EXPECT_NE(error.text.find("diverged"), std::string::npos) << error.text;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <thread>
 
 #include "bridge/robot.h"
@@ -11,8 +12,10 @@
 #include "host/builtin_robots.h"
 #include "host/driver.h"
 #include "host/evaluator.h"
+#include "host/frames.h"
 #include "host/sim_backend.h"
 #include "host/worlds.h"
+#include "physics/render/image.h"
 #include "physics/script.h"
 #include "physics/world.h"
 #include "tests/support/code_of.h"
@@ -169,6 +172,90 @@ TEST(DriverSimTest, DivergenceIsReportedAndResetRecovers) {
   driver.ResetSimulation();
   EXPECT_EQ(CodeOf([&] { driver.Sleep(0.2, false, nullptr); }), StatusCode::kOk);
   EXPECT_TRUE(std::isfinite(driver.RobotPosition().position[0]));
+}
+
+// The scene over SNP (ReadScene), real ids, and frames drawn from it.
+TEST(DriverSimTest, GetSceneCarriesRealIdsAndFramesComeFromIt) {
+  std::map<int, int> map;
+  for (int i = 0; i <= 8; ++i) map[20 + i] = i;
+  cpg::RobotConfig renamed;
+  for (cpg::ModuleParams m : testing::QuadrupedConfig().modules) {
+    m.id += 20;
+    renamed.modules.push_back(m);
+  }
+  renamed.master_id = testing::QuadrupedConfig().master_id + 20;
+  for (const auto& [child, parent] : testing::QuadrupedConfig().bluetooth_parent) {
+    renamed.bluetooth_parent[child + 20] = parent + 20;
+  }
+  DriverOptions options;
+  options.id_map = IdMap(map);
+  RobotDriver driver(options, renamed);
+  EXPECT_EQ(CodeOf([&] { driver.GetScene(); }), StatusCode::kFailedPrecondition);  // no world
+  SimulationSpec spec = Quadruped();
+  spec.config.reset();
+  driver.OpenSimulation(std::move(spec));
+  driver.Sleep(0.5, false, nullptr);
+  const render::Scene scene = driver.GetScene();
+  ASSERT_EQ(scene.modules.size(), 9u);
+  EXPECT_EQ(scene.modules.front().id, 20);
+  EXPECT_EQ(scene.Central()->id, 24);
+  EXPECT_NEAR(scene.Central()->body.position.x(), driver.RobotPosition().position[0], 1e-6);
+  EXPECT_NEAR(scene.time, 0.5, 1e-9);
+
+  try {
+    const EncodedFrame frame = RenderFrame(driver, FrameSpec{.width = 64, .height = 48});
+    EXPECT_EQ(render::DecodePng(frame.png).width, 64);
+    EXPECT_NEAR(frame.time, 0.5, 1e-9);
+    std::vector<EncodedFrame> frames;
+    RecordFrames(driver, RecordSpec{.frame = {.width = 32, .height = 24}, .frame_rate = 20,
+                                    .seconds = 0.25},
+                 [&](EncodedFrame&& f) {
+                   frames.push_back(std::move(f));
+                   return true;
+                 },
+                 nullptr);
+    ASSERT_EQ(frames.size(), 5u);
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      EXPECT_EQ(frames[i].index, i);
+      EXPECT_NEAR(frames[i].time, 0.5 + 0.05 * i, 1e-9);
+    }
+    EXPECT_NEAR(driver.ElapsedTime(), 0.75, 1e-9);
+    // A sink that gives up stops the recording at once.
+    int taken = 0;
+    RecordFrames(driver, RecordSpec{.frame = {.width = 8, .height = 8}, .frame_rate = 10,
+                                    .seconds = 10},
+                 [&](EncodedFrame&&) { return ++taken < 2; }, nullptr);
+    EXPECT_EQ(taken, 2);
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kUnavailable) throw;
+    GTEST_SKIP() << "no renderer on this machine: " << e.what();
+  }
+}
+
+TEST(DriverSimTest, FramesOfADivergedWorldFailAndBadSpecsAreRefusedFirst) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  auto backend = std::make_unique<SimBackend>(Quadruped().morphology, bridge::RobotOptions{});
+  SimBackend* sim = backend.get();
+  driver.AttachBackend(std::move(backend), "quadruped");
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { RenderFrame(driver, FrameSpec{.width = 0}); }, &message),
+            StatusCode::kOutOfRange);
+  EXPECT_EQ(message, "frame width 0 is outside 1..4096");
+  EXPECT_EQ(CodeOf([&] {
+              RecordFrames(driver, RecordSpec{.frame_rate = 0}, [](EncodedFrame&&) { return true; },
+                           nullptr);
+            }, &message),
+            StatusCode::kOutOfRange);
+  EXPECT_EQ(message, "frame rate 0 per second is outside (0, 240]");
+  EXPECT_EQ(CodeOf([&] {
+              RecordFrames(driver, RecordSpec{.seconds = std::nan("")},
+                           [](EncodedFrame&&) { return true; }, nullptr);
+            }),
+            StatusCode::kInvalidArgument);
+  sim->robot().world().InjectNonFiniteForTesting(0);
+  sim->robot().world().Step();
+  EXPECT_EQ(CodeOf([&] { driver.GetScene(); }, &message), StatusCode::kFailedPrecondition);
+  EXPECT_NE(message.find("diverged"), std::string::npos) << message;
 }
 
 TEST(DriverSimTest, FaultsAndGroundReachTheWorld) {

@@ -315,6 +315,91 @@ TEST_F(ServiceTest, WatchStateStreamsPosesAndEvents) {
   EXPECT_EQ(status.error_code(), grpc::StatusCode::CANCELLED) << status.error_message();
 }
 
+// RenderFrame / RecordFrames: codes for bad input before the robot is
+// touched, frames while another client drives the robot, no robot lock
+// while a stream waits on its client.
+TEST_F(ServiceTest, FramesRefuseBadInputAndLeaveTheRobotAlone) {
+  using Code = grpc::StatusCode;
+  auto render = [&](uint32_t width, uint32_t height, const v1::Camera& camera) {
+    v1::RenderFrameRequest request;
+    request.set_width(width);
+    request.set_height(height);
+    *request.mutable_camera() = camera;
+    v1::RenderFrameResponse response;
+    return Call(*stub_, &v1::Host::Stub::RenderFrame, request, &response);
+  };
+  v1::Camera follow;
+  EXPECT_EQ(render(0, 480, follow).error_code(), Code::OUT_OF_RANGE);
+  EXPECT_EQ(render(640, 4097, follow).error_message(), "frame height 4097 is outside 1..4096");
+  v1::Camera nan = follow;
+  nan.set_elevation(std::nan(""));
+  EXPECT_EQ(render(64, 48, nan).error_message(), "camera elevation is not finite: nan");
+  v1::Camera degenerate;
+  degenerate.set_kind(v1::CAMERA_FIXED);
+  degenerate.mutable_eye()->set_z(1.0);
+  degenerate.mutable_target()->set_z(1.0);
+  EXPECT_EQ(render(64, 48, degenerate).error_code(), Code::INVALID_ARGUMENT);
+  v1::Camera bad_kind;
+  bad_kind.set_kind(static_cast<v1::CameraKind>(7));
+  EXPECT_EQ(render(64, 48, bad_kind).error_code(), Code::INVALID_ARGUMENT);
+
+  auto record = [&](double rate, double seconds) {
+    grpc::ClientContext context;
+    testing::SetDeadline(context, 60);
+    v1::RecordFramesRequest request;
+    request.set_width(32);
+    request.set_height(24);
+    request.set_frame_rate(rate);
+    request.set_seconds(seconds);
+    auto reader = stub_->RecordFrames(&context, request);
+    v1::VideoFrame frame;
+    int frames = 0;
+    while (reader->Read(&frame)) ++frames;
+    const grpc::Status status = reader->Finish();
+    return std::make_pair(status.error_code(), frames);
+  };
+  EXPECT_EQ(record(0, 1), std::make_pair(Code::OUT_OF_RANGE, 0));
+  EXPECT_EQ(record(std::nan(""), 1), std::make_pair(Code::INVALID_ARGUMENT, 0));
+  EXPECT_EQ(record(25, 0), std::make_pair(Code::OUT_OF_RANGE, 0));
+  EXPECT_EQ(record(240, 3600), std::make_pair(Code::OUT_OF_RANGE, 0));  // too many frames
+  v1::ElapsedTimeResponse time;
+  EXPECT_OK(Call(*stub_, &v1::Host::Stub::ElapsedTime, Empty(), &time));
+  EXPECT_EQ(time.seconds(), 0.0) << "a refused recording never steps the world";
+
+  v1::RenderFrameRequest request;
+  request.set_width(64);
+  request.set_height(48);
+  v1::RenderFrameResponse response;
+  const grpc::Status status = Call(*stub_, &v1::Host::Stub::RenderFrame, request, &response);
+  if (status.error_code() == Code::UNAVAILABLE) GTEST_SKIP() << status.error_message();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.png().substr(1, 3), "PNG");
+  EXPECT_EQ(response.time(), 0.0);
+
+  // A stream whose client does not read: the server blocks in Write without
+  // the robot, so other calls go on.
+  grpc::ClientContext context;
+  testing::SetDeadline(context, 60);
+  v1::RecordFramesRequest slow;
+  slow.set_width(400);
+  slow.set_height(300);
+  slow.set_frame_rate(10);
+  slow.set_seconds(100);
+  auto reader = stub_->RecordFrames(&context, slow);
+  v1::VideoFrame frame;
+  ASSERT_TRUE(reader->Read(&frame));
+  EXPECT_EQ(frame.index(), 0u);
+  for (int i = 0; i < 5; ++i) EXPECT_OK(Call(*stub_, &v1::Host::Stub::ElapsedTime, Empty(), &time));
+  EXPECT_OK(Call(*stub_, &v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest()));
+  ASSERT_TRUE(reader->Read(&frame));
+  EXPECT_EQ(frame.index(), 1u);
+  EXPECT_NEAR(frame.time(), 0.1, 1e-9);
+  context.TryCancel();
+  while (reader->Read(&frame)) {
+  }
+  EXPECT_EQ(reader->Finish().error_code(), Code::CANCELLED);
+}
+
 TEST_F(ServiceTest, ParallelEvaluationsBothSucceed) {
   v1::EvaluateRequest request;
   request.set_world("quadruped");

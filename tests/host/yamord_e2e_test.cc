@@ -155,6 +155,38 @@ TEST(YamordTest, EvaluateIsDeterministicAndRunsInParallel) {
   EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
 }
 
+// A headless machine renders; one without a renderer says so and serves on.
+TEST(YamordTest, FramesOnAHeadlessMachineAndUnavailableWithoutARenderer) {
+  {
+    ::unsetenv("DISPLAY");  // no X: rendering must not need it
+    Connection c;
+    ASSERT_GT(c.port, 0);
+    v1::RenderFrameRequest request;
+    request.set_width(320);
+    request.set_height(240);
+    v1::RenderFrameResponse frame;
+    ASSERT_OK(Call(*c.stub, &v1::Host::Stub::RenderFrame, request, &frame));
+    EXPECT_EQ(frame.png().substr(1, 3), "PNG");
+  }
+  ::setenv("YAMOR_RENDER_BACKEND", "none", 1);
+  Connection c;
+  ::unsetenv("YAMOR_RENDER_BACKEND");
+  ASSERT_GT(c.port, 0);
+  v1::RenderFrameRequest request;
+  request.set_width(64);
+  request.set_height(48);
+  v1::RenderFrameResponse frame;
+  const grpc::Status status = Call(*c.stub, &v1::Host::Stub::RenderFrame, request, &frame);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_NE(status.error_message().find("no renderer"), std::string::npos)
+      << status.error_message();
+  v1::ElapsedTimeResponse time;
+  ASSERT_OK(Call(*c.stub, &v1::Host::Stub::ElapsedTime, Empty(), &time));
+  EXPECT_EQ(time.seconds(), 0.0) << "a failed render leaves the robot alone";
+  c.daemon->Signal(SIGINT);
+  EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+}
+
 TEST(YamordTest, SigtermDuringALongSleepDrainsAndExitsZero) {
   Connection c;
   ASSERT_GT(c.port, 0);

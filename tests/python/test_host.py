@@ -59,6 +59,8 @@ WRAPPER = {
     "WatchState": "watch",
     "Evaluate": "evaluate",
     "SetFreeRun": "set_free_run",
+    "RenderFrame": "snapshot",
+    "RecordFrames": "frames",
 }
 
 
@@ -325,3 +327,39 @@ def test_thesis_session_rolls_the_wheel(fresh):
     travelled = planar_distance(start, fresh.position())
     assert travelled > 1.0, f"the wheel did not roll: {travelled:.3f} m in 20 s"
     fresh.open_simulation(world="quadruped")  # back to the default robot
+
+
+def test_snapshot_is_a_png_of_the_robot_and_changes_nothing(fresh, tmp_path):
+    before = fresh.elapsed_time()
+    path = tmp_path / "robot.png"
+    png = fresh.snapshot(path, width=320, height=240)
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and path.read_bytes() == png
+    assert int.from_bytes(png[16:20], "big") == 320 and int.from_bytes(png[20:24], "big") == 240
+    assert fresh.snapshot(width=320, height=240) == png  # same state, same bytes
+    top = fresh.snapshot(camera="top", camera_height=1.5, width=64, height=48, legend=False)
+    assert top != png
+    assert fresh.elapsed_time() == before
+
+
+@pytest.mark.parametrize("kwargs, code", [
+    (dict(width=0), "OUT_OF_RANGE"),
+    (dict(height=5000), "OUT_OF_RANGE"),
+    (dict(azimuth=math.nan), "INVALID_ARGUMENT"),
+    (dict(camera="fixed", eye=(0, 0, 0), target=(0, 0, 0)), "INVALID_ARGUMENT"),
+])
+def test_bad_frames_are_refused_and_the_daemon_serves_on(fresh, kwargs, code):
+    with pytest.raises(yamor.HostError) as e:
+        fresh.snapshot(**kwargs)
+    assert e.value.code == code
+    assert fresh.elapsed_time() == 0.0
+
+
+def test_frames_step_the_world_and_come_at_the_rate(fresh):
+    frames = list(fresh.frames(0.4, 10, width=64, height=48))
+    assert [f.index for f in frames] == [0, 1, 2, 3]
+    assert [round(f.time, 6) for f in frames] == [0.0, 0.1, 0.2, 0.3]
+    assert all(f.png[:4] == b"\x89PNG" for f in frames)
+    assert abs(fresh.elapsed_time() - 0.4) < 1e-9
+    with pytest.raises(yamor.HostError) as e:
+        list(fresh.frames(1.0, 0))
+    assert e.value.code == "OUT_OF_RANGE"

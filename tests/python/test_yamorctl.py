@@ -105,3 +105,29 @@ def test_save_and_load_files(yamorctl, host, tmp_path):
     r = yamorctl("load", str(bad))
     assert r.returncode == 3 and str(bad) in r.stderr  # the message names the file
     assert yamorctl("load", str(tmp_path / "missing.xml")).returncode == 2
+
+
+def test_snapshot_and_record_an_mp4(yamorctl, host, tmp_path):
+    import shutil
+    import subprocess
+    host.open_simulation(world="quadruped")
+    png = tmp_path / "now.png"
+    r = yamorctl("snapshot", str(png), "--width", "320", "--height", "240")
+    assert r.returncode == 0, r.stderr
+    assert r.stdout == f"{png}: 320x240, t = 0.000 s\n"
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    r = yamorctl("snapshot", str(png), "--width", "0")
+    assert r.returncode == 11 and "frame width 0" in r.stderr  # OUT_OF_RANGE
+    if shutil.which("ffmpeg") is None or shutil.which("ffprobe") is None:
+        return  # the PNG-sequence path is covered by render_test
+    video = tmp_path / "walk.mp4"
+    r = yamorctl("record", "--seconds", "1", "--fps", "10", "--width", "160", "--height", "120",
+                 str(video))
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith(f"{video}: 10 frames, 160x120, 10 fps"), r.stdout
+    probe = subprocess.run(
+        ["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+         "stream=nb_read_frames,width,height", "-of", "csv=p=0", str(video)],
+        capture_output=True, text=True, check=True)
+    assert probe.stdout == "160,120,10\n"
+    assert yamorctl("time").stdout == "1.000 s\n"

@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "common/status.h"
+#include "physics/render/image.h"
 #include "tools/yamorctl/yamorctl.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -107,7 +108,29 @@ class RecordingHost final : public v1::Host::Service {
   YAMOR_FAKE(TurnUpsideDown, Empty, Empty)
   YAMOR_FAKE(Evaluate, v1::EvaluateRequest, v1::EvaluateResponse)
   YAMOR_FAKE(SetFreeRun, v1::SetFreeRunRequest, Empty)
+  YAMOR_FAKE(RenderFrame, v1::RenderFrameRequest, v1::RenderFrameResponse)
 #undef YAMOR_FAKE
+
+  grpc::Status RecordFrames(grpc::ServerContext* context, const v1::RecordFramesRequest* request,
+                            grpc::ServerWriter<v1::VideoFrame>* writer) override {
+    v1::VideoFrame unused;
+    const grpc::Status status = Record("RecordFrames", *context, *request, &unused);
+    if (!status.ok()) return status;
+    // Two frames of the requested size (or 8x6), 1/frame_rate apart.
+    const int width = request->width() > 0 && request->width() <= 64 ? request->width() : 8;
+    const int height = request->height() > 0 && request->height() <= 64 ? request->height() : 6;
+    render::Image image{.width = width, .height = height};
+    image.rgba.assign(static_cast<std::size_t>(width) * height * 4, 200);
+    const std::vector<uint8_t> png = render::EncodePng(image);
+    for (uint32_t i = 0; i < 2; ++i) {
+      v1::VideoFrame frame;
+      frame.set_index(i);
+      frame.set_time(i / (request->frame_rate() > 0 ? request->frame_rate() : 1.0));
+      frame.set_png(png.data(), png.size());
+      if (!writer->Write(frame)) break;
+    }
+    return grpc::Status::OK;
+  }
 
   grpc::Status WatchState(grpc::ServerContext* context, const v1::WatchStateRequest* request,
                           grpc::ServerWriter<v1::StateUpdate>* writer) override {
@@ -296,6 +319,25 @@ TEST_F(YamorctlTest, EveryCommandSendsItsRequest) {
       {{"evaluate", "--config", config, "--morphology", morphology}, "Evaluate",
        "config_xml: \"<yamorconfig/>\" morphology_xml: \"<morphology/>\""},
       {{"freerun", "2"}, "SetFreeRun", "real_time_factor: 2"},
+      {{"snapshot", TempFile("frame.png", "")}, "RenderFrame",
+       "camera { } width: 640 height: 480"},
+      {{"snapshot", TempFile("top.png", ""), "--camera", "top", "--target", "1", "2", "0",
+        "--camera-height", "1.5", "--width", "320", "--height", "240", "--no-legend"},
+       "RenderFrame",
+       "camera { kind: CAMERA_TOP target { x: 1 y: 2 } height: 1.5 } width: 320 height: 240 "
+       "hide_legend: true"},
+      {{"snapshot", TempFile("fixed.png", ""), "--camera", "fixed", "--eye", "1", "-1", "0.5",
+        "--fov", "0.6", "--no-labels"},
+       "RenderFrame",
+       "camera { kind: CAMERA_FIXED eye { x: 1 y: -1 z: 0.5 } fov: 0.6 } width: 640 height: 480 "
+       "hide_labels: true"},
+      {{"record", "--seconds", "2", TempFile("walk.mp4", ""), "--distance", "1.2", "--elevation",
+        "0.3", "--azimuth", "-1", "--width", "32", "--height", "24", "--fps", "10"},
+       "RecordFrames",
+       "camera { distance: 1.2 elevation: 0.3 azimuth: -1 } width: 32 height: 24 frame_rate: 10 "
+       "seconds: 2"},
+      {{"record", "--seconds", "1", "--watch", TempFile("watch.mp4", "")}, "RecordFrames",
+       "camera { } width: 640 height: 480 frame_rate: 25 seconds: 1 watch: true"},
   };
   std::set<std::string> reached;
   for (const CommandCase& c : cases) {

@@ -16,6 +16,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "common/status.h"
+#include "physics/render/video.h"
 #include "tools/yamorctl/format.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -30,7 +31,8 @@ a result; watch prints one object per update).
 
 Deadlines: every call has one: --timeout (default 10 s); when --timeout is
 not given, sleep adds its duration, evaluate its warm-up plus duration,
-connect its --link-timeout, script 60 s, and watch --count N adds N periods
+connect its --link-timeout, script 60 s, snapshot 20 s, record 0.2 s per
+frame (plus --seconds with --watch), and watch --count N adds N periods
 (a watch without --count has no deadline: stop it with Ctrl-C).
 
 Exit status:
@@ -45,6 +47,9 @@ Exit status:
    5 NOT_FOUND                                    16 UNAUTHENTICATED
 
 Address: --host, else $YAMORCTL_HOST, else 127.0.0.1:2224.)";
+
+// Largest response we accept: a 4096x4096 PNG frame fits.
+constexpr int kMaxMessageBytes = 256 << 20;
 
 // Largest deadline we set [s]: far beyond any real call, safe for chrono.
 constexpr double kMaxDeadlineSeconds = 1e8;
@@ -74,8 +79,15 @@ class Session {
       : options_(options),
         out_(out),
         err_(err),
-        stub_(v1::Host::NewStub(
-            grpc::CreateChannel(options.host, grpc::InsecureChannelCredentials()))) {}
+        stub_(v1::Host::NewStub(grpc::CreateCustomChannel(
+            options.host, grpc::InsecureChannelCredentials(), ChannelArguments()))) {}
+
+  /// Frames (snapshot, record) can be large PNGs: beyond gRPC's default 4 MB.
+  static grpc::ChannelArguments ChannelArguments() {
+    grpc::ChannelArguments arguments;
+    arguments.SetMaxReceiveMessageSize(kMaxMessageBytes);
+    return arguments;
+  }
 
   std::ostream& out() { return out_; }
   std::ostream& err() { return err_; }
@@ -851,6 +863,190 @@ void AddWatch(CLI::App& app, Action& action, const GlobalOptions& global) {
   });
 }
 
+// ---- pictures and videos -------------------------------------------------------------
+
+/// Camera and size options shared by snapshot and record.
+struct FrameArgs {
+  std::string camera = "follow";
+  double distance = 0, elevation = 0, azimuth = 0, camera_height = 0, fov = 0;
+  std::vector<double> eye, target;
+  uint32_t width = 640, height = 480;
+  bool no_labels = false, no_legend = false;
+  CLI::Option* distance_option = nullptr;
+  CLI::Option* elevation_option = nullptr;
+  CLI::Option* azimuth_option = nullptr;
+  CLI::Option* camera_height_option = nullptr;
+};
+
+void AddFrameOptions(CLI::App* c, FrameArgs& a) {
+  c->add_option("--camera", a.camera,
+                "follow (the central module), fixed (--eye/--target) or top (ceiling camera)")
+      ->check(CLI::IsMember({"follow", "fixed", "top"}))
+      ->capture_default_str();
+  a.distance_option = c->add_option("--distance", a.distance, "follow: eye to module [m] (0.8)");
+  a.elevation_option =
+      c->add_option("--elevation", a.elevation, "follow: above the horizon [rad] (0.45)");
+  a.azimuth_option =
+      c->add_option("--azimuth", a.azimuth, "follow: module-to-eye direction from +x [rad] (-1.2)");
+  c->add_option("--eye", a.eye, "fixed: eye X Y Z [m]")->expected(3);
+  c->add_option("--target", a.target, "fixed: looked-at point; top: point below, X Y Z [m]")
+      ->expected(3);
+  a.camera_height_option =
+      c->add_option("--camera-height", a.camera_height, "top: height above the target [m] (2.7)");
+  c->add_option("--fov", a.fov, "Vertical field of view [rad] (0: 45 deg, top 49.6 deg)");
+  c->add_option("--width", a.width, "Image width [px], 1..4096")->capture_default_str();
+  c->add_option("--height", a.height, "Image height [px], 1..4096")->capture_default_str();
+  c->add_flag("--no-labels", a.no_labels, "No module ids next to the modules");
+  c->add_flag("--no-legend", a.no_legend, "No legend strip (colours, ids, time)");
+}
+
+v1::Camera ToCamera(const FrameArgs& a) {
+  v1::Camera camera;
+  camera.set_kind(a.camera == "fixed" ? v1::CAMERA_FIXED
+                  : a.camera == "top" ? v1::CAMERA_TOP
+                                      : v1::CAMERA_FOLLOW);
+  if (a.distance_option->count()) camera.set_distance(a.distance);
+  if (a.elevation_option->count()) camera.set_elevation(a.elevation);
+  if (a.azimuth_option->count()) camera.set_azimuth(a.azimuth);
+  if (a.camera_height_option->count()) camera.set_height(a.camera_height);
+  if (a.eye.size() == 3) {
+    camera.mutable_eye()->set_x(a.eye[0]);
+    camera.mutable_eye()->set_y(a.eye[1]);
+    camera.mutable_eye()->set_z(a.eye[2]);
+  }
+  if (a.target.size() == 3) {
+    camera.mutable_target()->set_x(a.target[0]);
+    camera.mutable_target()->set_y(a.target[1]);
+    camera.mutable_target()->set_z(a.target[2]);
+  }
+  camera.set_fov(a.fov);
+  return camera;
+}
+
+void AddSnapshot(CLI::App& app, Action& action) {
+  struct Args : FrameArgs {
+    std::string file;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand(
+      "snapshot", "A picture (PNG) of the simulated robot now, drawn without a display");
+  c->add_option("FILE", a->file, "PNG file to write")->required();
+  AddFrameOptions(c, *a);
+  c->callback([&action, a] {
+    action = [a](Session& s) {
+      v1::RenderFrameRequest request;
+      *request.mutable_camera() = ToCamera(*a);
+      request.set_width(a->width);
+      request.set_height(a->height);
+      request.set_hide_labels(a->no_labels);
+      request.set_hide_legend(a->no_legend);
+      v1::RenderFrameResponse response;
+      if (const int code = s.Call(&v1::Host::Stub::RenderFrame, request, &response, s.Timeout(20.0));
+          code != 0) {
+        return code;
+      }
+      WriteFile(a->file, response.png());
+      v1::RenderFrameResponse shown;
+      shown.set_time(response.time());
+      s.Print(shown, [&](const v1::RenderFrameResponse& r) {
+        return fmt::format("{}: {}x{}, t = {:.3f} s\n", a->file, a->width, a->height, r.time());
+      });
+      return 0;
+    };
+  });
+}
+
+void AddRecord(CLI::App& app, Action& action) {
+  struct Args : FrameArgs {
+    std::string file;
+    double seconds = 0, fps = 25;
+    bool watch = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand(
+      "record",
+      "A video of the simulated robot: frames piped to ffmpeg (a numbered PNG sequence without it)");
+  c->add_option("FILE", a->file, "Video file (e.g. walk.mp4)")->required();
+  c->add_option("--seconds", a->seconds, "Simulated duration [s]")->required();
+  c->add_option("--fps", a->fps, "Frames per simulated second (and of the video)")
+      ->capture_default_str();
+  c->add_flag("--watch", a->watch,
+              "Do not step the world: film it while others advance it (freerun, sleep)");
+  AddFrameOptions(c, *a);
+  c->callback([&action, a] {
+    action = [a](Session& s) {
+      v1::RecordFramesRequest request;
+      *request.mutable_camera() = ToCamera(*a);
+      request.set_width(a->width);
+      request.set_height(a->height);
+      request.set_hide_labels(a->no_labels);
+      request.set_hide_legend(a->no_legend);
+      request.set_frame_rate(a->fps);
+      request.set_seconds(a->seconds);
+      request.set_watch(a->watch);
+      // Drawing takes tens of milliseconds a frame; watching takes the world's time too.
+      const double frames = std::isfinite(a->seconds * a->fps) ? a->seconds * a->fps : 0.0;
+      grpc::ClientContext context;
+      Session::SetDeadline(context, s.Timeout(0.2 * frames + (a->watch ? a->seconds : 0.0)));
+      std::unique_ptr<render::VideoWriter> writer;
+      int received = 0;
+      double first_time = 0, last_time = 0;
+      std::unique_ptr<grpc::ClientReader<v1::VideoFrame>> reader =
+          s.stub().RecordFrames(&context, request);
+      v1::VideoFrame frame;
+      try {
+        while (reader->Read(&frame)) {
+          if (!writer) {
+            writer = std::make_unique<render::VideoWriter>(
+                a->file, render::VideoOptions{.frame_rate = a->fps});
+            first_time = frame.time();
+          }
+          const std::string& png = frame.png();
+          writer->AddFrame({reinterpret_cast<const uint8_t*>(png.data()), png.size()});
+          last_time = frame.time();
+          ++received;
+        }
+      } catch (const Error& e) {
+        context.TryCancel();
+        reader->Finish();
+        s.err() << "yamorctl: " << StatusCodeName(e.code()) << ": " << e.what() << "\n";
+        return static_cast<int>(e.code());
+      }
+      const grpc::Status status = reader->Finish();
+      if (!status.ok()) {
+        const int code = s.Report(status);
+        if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED && a->watch) {
+          s.err() << "yamorctl: hint: with --watch frames come only while the world advances "
+                     "(freerun, sleep)\n";
+        }
+        if (writer && received > 0) writer->Finish();
+        return code;
+      }
+      if (!writer) {
+        s.err() << "yamorctl: the daemon sent no frames\n";
+        return kUsageExitCode;
+      }
+      render::VideoResult result;
+      try {
+        result = writer->Finish();
+      } catch (const Error& e) {
+        s.err() << "yamorctl: " << StatusCodeName(e.code()) << ": " << e.what() << "\n";
+        return static_cast<int>(e.code());
+      }
+      if (!result.video) s.err() << "yamorctl: note: " << result.note << "\n";
+      v1::VideoFrame shown;
+      shown.set_index(static_cast<uint32_t>(received));
+      shown.set_time(last_time);
+      s.Print(shown, [&](const v1::VideoFrame&) {
+        return fmt::format("{}: {} frames, {}x{}, {} fps, t = {:.3f} .. {:.3f} s\n",
+                           result.video ? result.path : result.pattern, received, a->width,
+                           a->height, a->fps, first_time, last_time);
+      });
+      return 0;
+    };
+  });
+}
+
 }  // namespace
 
 std::pair<std::string, double> ParseParameterAssignment(std::string_view text) {
@@ -915,6 +1111,8 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   AddModelCommands(app, action);
   AddEvaluate(app, action);
   AddWatch(app, action, global);
+  AddSnapshot(app, action);
+  AddRecord(app, action);
   app.footer(kFooter);  // after the commands, which would inherit it
 
   try {

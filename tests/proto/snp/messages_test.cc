@@ -160,6 +160,10 @@ TEST(SnpMessageTest, PayloadLayoutsArePinned) {
             (std::vector<uint8_t>{3, 0, 0, 0, 1, 0, 0, 0, 'a', 'b'}));
   EXPECT_EQ(PayloadBytes(Ground{}).size(), 24u);
   EXPECT_EQ(PayloadBytes(SimInfo{}).size(), 24u);
+  // Scene readback (issue 14).
+  EXPECT_EQ(PayloadBytes(ReadScene{0x01020304, 232}), (std::vector<uint8_t>{4, 3, 2, 1, 232}));
+  EXPECT_EQ(PayloadBytes(SceneChunk{3, 1, {'a', 'b'}}),
+            (std::vector<uint8_t>{3, 0, 0, 0, 1, 0, 0, 0, 'a', 'b'}));
 }
 
 TEST(SnpSpecialsValidationTest, RejectBadValuesNamingTheField) {

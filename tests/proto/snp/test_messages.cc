@@ -127,6 +127,9 @@ Message RandomOfType(MessageType type, std::mt19937_64& rng) {
       return ReadMorphology{static_cast<uint32_t>(rng()),
                             static_cast<uint8_t>(1 + rng() % kMaxMorphologyChunkSize)};
     case MessageType::kGetSimInfo: return GetSimInfo{};
+    case MessageType::kReadScene:
+      return ReadScene{static_cast<uint32_t>(rng()),
+                       static_cast<uint8_t>(1 + rng() % kMaxSceneChunkSize)};
     case MessageType::kGround:
       return Ground{RandomDouble(rng), RandomDouble(rng), RandomDouble(rng)};
     case MessageType::kDivergence: {
@@ -145,6 +148,14 @@ Message RandomOfType(MessageType type, std::mt19937_64& rng) {
     }
     case MessageType::kSimInfo:
       return SimInfo{RandomDouble(rng), RandomDouble(rng), RandomDouble(rng)};
+    case MessageType::kSceneChunk: {
+      SceneChunk m;
+      m.data.resize(rng() % (kMaxSceneChunkSize + 1));
+      for (uint8_t& b : m.data) b = static_cast<uint8_t>(rng());
+      m.offset = static_cast<uint32_t>(rng() % 100000);
+      m.total = m.offset + static_cast<uint32_t>(m.data.size() + rng() % 1000);
+      return m;
+    }
     case MessageType::kSimTime: return SimTime{RandomDouble(rng)};
     case MessageType::kStepDone: return StepDone{RandomDouble(rng)};
     case MessageType::kTimerFired:
@@ -217,6 +228,7 @@ std::vector<AddressedMessage> SampleMessages() {
       {host, bridge, GetDivergence{}},
       {host, bridge, ReadMorphology{464, 232}},
       {host, bridge, GetSimInfo{}},
+      {host, bridge, ReadScene{232, 232}},
       {bridge, host, SimTime{20.004}},
       {bridge, host, StepDone{20.014}},
       {bridge, host, TimerFired{7, 32.5}},
@@ -228,6 +240,8 @@ std::vector<AddressedMessage> SampleMessages() {
       {bridge, host, MorphologyChunk{5, 0, {'<', 'r', '/', '>', '\n'}}},
       {bridge, host, MorphologyChunk{300, 68, std::vector<uint8_t>(kMaxMorphologyChunkSize, 0x00)}},
       {bridge, host, SimInfo{0.001, 512.0, 0.0395}},
+      {bridge, host, SceneChunk{4, 0, {1, 0, 4, 2}}},
+      {bridge, host, SceneChunk{900, 464, std::vector<uint8_t>(kMaxSceneChunkSize, 0xff)}},
       {bridge, host, SpecialError{MessageType::kConnectModules, StatusCode::kUnimplemented,
                                   "manual assembly required"}},
       {bridge, host, SpecialError{MessageType::kStep, StatusCode::kInvalidArgument,

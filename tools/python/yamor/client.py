@@ -50,6 +50,15 @@ class HostError(Exception):
         return self.status.value[0]
 
 
+@dataclass
+class Frame:
+    """One picture of a recording (RecordFrames)."""
+
+    index: int
+    time: float  # simulated time of the scene [s]
+    png: bytes
+
+
 @dataclass(frozen=True)
 class Position:
     """Central module position (RobotPosition)."""
@@ -217,7 +226,9 @@ class Host:
             raise ValueError(f"timeout {timeout} must be > 0 seconds")
         self.address = address
         self.timeout = float(timeout)
-        self._channel = grpc.insecure_channel(address)
+        # Frames (snapshot, frames) can be PNGs beyond gRPC's default 4 MB.
+        self._channel = grpc.insecure_channel(
+            address, options=[("grpc.max_receive_message_length", 256 << 20)])
         self._stub = pb_grpc.HostStub(self._channel)
 
     # ---- plumbing -----------------------------------------------------------
@@ -646,6 +657,87 @@ class Host:
         return Evaluation(r.velocity, r.distance, _pose(r.final_pose),
                           [TrajectorySample(t.time, _vector(t.position)) for t in r.trajectory],
                           r.diverged, r.divergence, r.wall_seconds)
+
+    @staticmethod
+    def _camera(camera: str, distance: Optional[float], elevation: Optional[float],
+                azimuth: Optional[float], eye: Optional[Sequence[float]],
+                target: Optional[Sequence[float]], height: Optional[float],
+                fov: float) -> pb.Camera:
+        kinds = {"follow": pb.CAMERA_FOLLOW, "fixed": pb.CAMERA_FIXED, "top": pb.CAMERA_TOP}
+        if camera not in kinds:
+            raise ValueError(f"camera {camera!r} is not follow, fixed or top")
+        c = pb.Camera(kind=kinds[camera], fov=fov)
+        if distance is not None:
+            c.distance = distance
+        if elevation is not None:
+            c.elevation = elevation
+        if azimuth is not None:
+            c.azimuth = azimuth
+        if height is not None:
+            c.height = height
+        if eye is not None:
+            c.eye.CopyFrom(pb.Vector3(x=eye[0], y=eye[1], z=eye[2]))
+        if target is not None:
+            c.target.CopyFrom(pb.Vector3(x=target[0], y=target[1], z=target[2]))
+        return c
+
+    def snapshot(self, path: Optional[Union[str, os.PathLike]] = None, *,
+                 camera: str = "follow", width: int = 640, height: int = 480,
+                 distance: Optional[float] = None, elevation: Optional[float] = None,
+                 azimuth: Optional[float] = None, eye: Optional[Sequence[float]] = None,
+                 target: Optional[Sequence[float]] = None,
+                 camera_height: Optional[float] = None, fov: float = 0.0,
+                 labels: bool = True, legend: bool = True,
+                 timeout: Optional[float] = None) -> bytes:
+        """A PNG picture of the simulated robot now (RenderFrame); also written
+        to ``path`` when given.
+
+        ``camera``: "follow" (distance [m], elevation, azimuth [rad] around the
+        central module), "fixed" (eye, target [m]) or "top" (the ceiling camera:
+        camera_height [m] above target). Size 1..4096 pixels a side.
+        """
+        request = pb.RenderFrameRequest(
+            camera=self._camera(camera, distance, elevation, azimuth, eye, target,
+                                camera_height, fov),
+            width=width, height=height, hide_labels=not labels, hide_legend=not legend)
+        png = self._call("RenderFrame", request, timeout, extra=20.0).png
+        if path is not None:
+            with open(path, "wb") as f:
+                f.write(png)
+        return png
+
+    def frames(self, seconds: float, frame_rate: float = 25.0, *, watch: bool = False,
+               camera: str = "follow", width: int = 640, height: int = 480,
+               distance: Optional[float] = None, elevation: Optional[float] = None,
+               azimuth: Optional[float] = None, eye: Optional[Sequence[float]] = None,
+               target: Optional[Sequence[float]] = None,
+               camera_height: Optional[float] = None, fov: float = 0.0,
+               labels: bool = True, legend: bool = True,
+               timeout: Optional[float] = None) -> Iterator[Frame]:
+        """Yields round(seconds * frame_rate) frames 1/frame_rate simulated
+        seconds apart (RecordFrames), each as soon as it is drawn.
+
+        By default the stream steps the world itself; with ``watch`` it films
+        the world while others advance it (free-run, a Sleep). Camera options
+        as :meth:`snapshot`. The deadline adds 0.2 s per frame (plus
+        ``seconds`` with ``watch``). Pipe the PNGs to ffmpeg for a video, or
+        use ``yamorctl record``.
+        """
+        request = pb.RecordFramesRequest(
+            camera=self._camera(camera, distance, elevation, azimuth, eye, target,
+                                camera_height, fov),
+            width=width, height=height, hide_labels=not labels, hide_legend=not legend,
+            frame_rate=frame_rate, seconds=seconds, watch=watch)
+        work = seconds * frame_rate * 0.2 + (seconds if watch else 0.0)
+        call = self._stub.RecordFrames(
+            request, timeout=self._deadline(timeout, work if math.isfinite(work) else 0.0))
+        try:
+            for f in call:
+                yield Frame(f.index, f.time, f.png)
+        except grpc.RpcError as e:
+            raise HostError(e.code(), e.details() or "", "RecordFrames") from None
+        finally:
+            call.cancel()
 
     def health(self, service: str = "", timeout: Optional[float] = None) -> str:
         """grpc.health.v1 status name of the daemon ("SERVING", ...).

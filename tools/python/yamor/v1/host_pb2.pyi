@@ -5,6 +5,9 @@ from google.protobuf import descriptor as _descriptor
 from google.protobuf import message as _message
 from typing import ClassVar as _ClassVar, Iterable as _Iterable, Mapping as _Mapping, Optional as _Optional, Union as _Union
 
+CAMERA_FIXED: CameraKind
+CAMERA_FOLLOW: CameraKind
+CAMERA_TOP: CameraKind
 CONNECTOR_BOTTOM: ConnectorName
 CONNECTOR_FRONT: ConnectorName
 CONNECTOR_LEFT: ConnectorName
@@ -42,6 +45,26 @@ class AddCouplingRequest(_message.Message):
     to_id: int
     weight: float
     def __init__(self, from_id: _Optional[int] = ..., to_id: _Optional[int] = ..., phase: _Optional[float] = ..., weight: _Optional[float] = ...) -> None: ...
+
+class Camera(_message.Message):
+    __slots__ = ["azimuth", "distance", "elevation", "eye", "fov", "height", "kind", "target"]
+    AZIMUTH_FIELD_NUMBER: _ClassVar[int]
+    DISTANCE_FIELD_NUMBER: _ClassVar[int]
+    ELEVATION_FIELD_NUMBER: _ClassVar[int]
+    EYE_FIELD_NUMBER: _ClassVar[int]
+    FOV_FIELD_NUMBER: _ClassVar[int]
+    HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    KIND_FIELD_NUMBER: _ClassVar[int]
+    TARGET_FIELD_NUMBER: _ClassVar[int]
+    azimuth: float
+    distance: float
+    elevation: float
+    eye: Vector3
+    fov: float
+    height: float
+    kind: CameraKind
+    target: Vector3
+    def __init__(self, kind: _Optional[_Union[CameraKind, str]] = ..., distance: _Optional[float] = ..., elevation: _Optional[float] = ..., azimuth: _Optional[float] = ..., eye: _Optional[_Union[Vector3, _Mapping]] = ..., target: _Optional[_Union[Vector3, _Mapping]] = ..., height: _Optional[float] = ..., fov: _Optional[float] = ...) -> None: ...
 
 class ConnectModulesRequest(_message.Message):
     __slots__ = ["angle_degrees", "from_connector", "from_id", "to_connector", "to_id"]
@@ -311,6 +334,48 @@ class Quaternion(_message.Message):
     z: float
     def __init__(self, w: _Optional[float] = ..., x: _Optional[float] = ..., y: _Optional[float] = ..., z: _Optional[float] = ...) -> None: ...
 
+class RecordFramesRequest(_message.Message):
+    __slots__ = ["camera", "frame_rate", "height", "hide_labels", "hide_legend", "seconds", "watch", "width"]
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    FRAME_RATE_FIELD_NUMBER: _ClassVar[int]
+    HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    HIDE_LABELS_FIELD_NUMBER: _ClassVar[int]
+    HIDE_LEGEND_FIELD_NUMBER: _ClassVar[int]
+    SECONDS_FIELD_NUMBER: _ClassVar[int]
+    WATCH_FIELD_NUMBER: _ClassVar[int]
+    WIDTH_FIELD_NUMBER: _ClassVar[int]
+    camera: Camera
+    frame_rate: float
+    height: int
+    hide_labels: bool
+    hide_legend: bool
+    seconds: float
+    watch: bool
+    width: int
+    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., hide_labels: bool = ..., hide_legend: bool = ..., frame_rate: _Optional[float] = ..., seconds: _Optional[float] = ..., watch: bool = ...) -> None: ...
+
+class RenderFrameRequest(_message.Message):
+    __slots__ = ["camera", "height", "hide_labels", "hide_legend", "width"]
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    HIDE_LABELS_FIELD_NUMBER: _ClassVar[int]
+    HIDE_LEGEND_FIELD_NUMBER: _ClassVar[int]
+    WIDTH_FIELD_NUMBER: _ClassVar[int]
+    camera: Camera
+    height: int
+    hide_labels: bool
+    hide_legend: bool
+    width: int
+    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., hide_labels: bool = ..., hide_legend: bool = ...) -> None: ...
+
+class RenderFrameResponse(_message.Message):
+    __slots__ = ["png", "time"]
+    PNG_FIELD_NUMBER: _ClassVar[int]
+    TIME_FIELD_NUMBER: _ClassVar[int]
+    png: bytes
+    time: float
+    def __init__(self, png: _Optional[bytes] = ..., time: _Optional[float] = ...) -> None: ...
+
 class RobotPositionResponse(_message.Message):
     __slots__ = ["orientation", "position", "source", "time"]
     ORIENTATION_FIELD_NUMBER: _ClassVar[int]
@@ -459,6 +524,16 @@ class Vector3(_message.Message):
     z: float
     def __init__(self, x: _Optional[float] = ..., y: _Optional[float] = ..., z: _Optional[float] = ...) -> None: ...
 
+class VideoFrame(_message.Message):
+    __slots__ = ["index", "png", "time"]
+    INDEX_FIELD_NUMBER: _ClassVar[int]
+    PNG_FIELD_NUMBER: _ClassVar[int]
+    TIME_FIELD_NUMBER: _ClassVar[int]
+    index: int
+    png: bytes
+    time: float
+    def __init__(self, index: _Optional[int] = ..., time: _Optional[float] = ..., png: _Optional[bytes] = ...) -> None: ...
+
 class WatchStateRequest(_message.Message):
     __slots__ = ["period"]
     PERIOD_FIELD_NUMBER: _ClassVar[int]
@@ -472,4 +547,7 @@ class ConnectorName(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = []
 
 class MotorDefect(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
+    __slots__ = []
+
+class CameraKind(int, metaclass=_enum_type_wrapper.EnumTypeWrapper):
     __slots__ = []

@@ -242,6 +242,16 @@ class HostStub(object):
                 request_serializer=yamor_dot_v1_dot_host__pb2.SetFreeRunRequest.SerializeToString,
                 response_deserializer=google_dot_protobuf_dot_empty__pb2.Empty.FromString,
                 )
+        self.RenderFrame = channel.unary_unary(
+                '/yamor.v1.Host/RenderFrame',
+                request_serializer=yamor_dot_v1_dot_host__pb2.RenderFrameRequest.SerializeToString,
+                response_deserializer=yamor_dot_v1_dot_host__pb2.RenderFrameResponse.FromString,
+                )
+        self.RecordFrames = channel.unary_stream(
+                '/yamor.v1.Host/RecordFrames',
+                request_serializer=yamor_dot_v1_dot_host__pb2.RecordFramesRequest.SerializeToString,
+                response_deserializer=yamor_dot_v1_dot_host__pb2.VideoFrame.FromString,
+                )
 
 
 class HostServicer(object):
@@ -576,6 +586,30 @@ class HostServicer(object):
         context.set_details('Method not implemented!')
         raise NotImplementedError('Method not implemented!')
 
+    def RenderFrame(self, request, context):
+        """A picture of the simulated robot as it is now (PNG), drawn headless
+        (software OpenGL, no display). OUT_OF_RANGE for a width or height outside
+        1..4096, INVALID_ARGUMENT for a camera with NaN or no view direction,
+        FAILED_PRECONDITION without a simulation or with a diverged world,
+        UNAVAILABLE when the machine has no renderer, UNIMPLEMENTED on a real
+        robot. Never changes the robot.
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
+    def RecordFrames(self, request, context):
+        """A film: frames every 1/frame_rate simulated seconds for `seconds`, each
+        streamed as soon as it is drawn. By default the stream steps the world
+        itself (as a virtual-time Sleep); with `watch` it only watches while
+        others advance it (free-run, another client's Sleep). Errors as
+        RenderFrame, plus OUT_OF_RANGE for a frame rate or duration outside its
+        range (0 included). Drawing and encoding never hold the robot.
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
 
 def add_HostServicer_to_server(servicer, server):
     rpc_method_handlers = {
@@ -803,6 +837,16 @@ def add_HostServicer_to_server(servicer, server):
                     servicer.SetFreeRun,
                     request_deserializer=yamor_dot_v1_dot_host__pb2.SetFreeRunRequest.FromString,
                     response_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
+            ),
+            'RenderFrame': grpc.unary_unary_rpc_method_handler(
+                    servicer.RenderFrame,
+                    request_deserializer=yamor_dot_v1_dot_host__pb2.RenderFrameRequest.FromString,
+                    response_serializer=yamor_dot_v1_dot_host__pb2.RenderFrameResponse.SerializeToString,
+            ),
+            'RecordFrames': grpc.unary_stream_rpc_method_handler(
+                    servicer.RecordFrames,
+                    request_deserializer=yamor_dot_v1_dot_host__pb2.RecordFramesRequest.FromString,
+                    response_serializer=yamor_dot_v1_dot_host__pb2.VideoFrame.SerializeToString,
             ),
     }
     generic_handler = grpc.method_handlers_generic_handler(
@@ -1578,5 +1622,39 @@ class Host(object):
         return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/SetFreeRun',
             yamor_dot_v1_dot_host__pb2.SetFreeRunRequest.SerializeToString,
             google_dot_protobuf_dot_empty__pb2.Empty.FromString,
+            options, channel_credentials,
+            insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
+
+    @staticmethod
+    def RenderFrame(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/RenderFrame',
+            yamor_dot_v1_dot_host__pb2.RenderFrameRequest.SerializeToString,
+            yamor_dot_v1_dot_host__pb2.RenderFrameResponse.FromString,
+            options, channel_credentials,
+            insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
+
+    @staticmethod
+    def RecordFrames(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_stream(request, target, '/yamor.v1.Host/RecordFrames',
+            yamor_dot_v1_dot_host__pb2.RecordFramesRequest.SerializeToString,
+            yamor_dot_v1_dot_host__pb2.VideoFrame.FromString,
             options, channel_credentials,
             insecure, call_credentials, compression, wait_for_ready, timeout, metadata)

@@ -1,0 +1,68 @@
+// Videos from rendered frames: PNG frames piped into the `ffmpeg`
+// command-line tool (H.264 in an MP4 for *.mp4), or, on a machine without
+// ffmpeg, a numbered PNG sequence next to the requested file.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <sys/types.h>
+
+namespace yamor::render {
+
+/// Settings of a VideoWriter. Thread-safety: plain value.
+struct VideoOptions {
+  double frame_rate = 25.0;  ///< Frames per second of the video, (0, 1000].
+  /// The ffmpeg program (looked up in PATH); empty: $YAMOR_FFMPEG, else "ffmpeg".
+  std::string ffmpeg;
+};
+
+/// What a VideoWriter produced.
+struct VideoResult {
+  bool video = false;      ///< True: `path` is a video made by ffmpeg.
+  std::string path;        ///< The video, or the first PNG of the sequence.
+  std::string pattern;     ///< The sequence's printf pattern ("out-%06d.png"), when no video.
+  int frames = 0;          ///< Frames written.
+  std::string note;        ///< For the user, e.g. why there is no video and how to make one.
+};
+
+/// Writes one video. Starts ffmpeg when constructed; when ffmpeg cannot be
+/// started (not installed) it writes `STEM-000000.png`, `STEM-000001.png`, ...
+/// beside `path` instead and says so in the result's note. Ignores SIGPIPE
+/// for the process (a failing ffmpeg then reports its error instead of
+/// killing the caller).
+///
+/// Thread-safety: not thread-safe; one thread at a time.
+class VideoWriter {
+ public:
+  /// Throws yamor::Error: OUT_OF_RANGE for a bad frame rate, INVALID_ARGUMENT
+  /// for an empty path.
+  VideoWriter(std::string path, VideoOptions options = {});
+  /// Stops ffmpeg if Finish() was not called (the file may be incomplete).
+  ~VideoWriter();
+  VideoWriter(const VideoWriter&) = delete;
+  VideoWriter& operator=(const VideoWriter&) = delete;
+
+  /// Appends one frame (PNG bytes, every frame the same size). Throws
+  /// yamor::Error(UNAVAILABLE) when ffmpeg stopped taking frames (with its
+  /// message) or INTERNAL when a PNG file cannot be written.
+  void AddFrame(std::span<const uint8_t> png);
+  /// Closes the video and waits for ffmpeg. Throws yamor::Error(UNAVAILABLE)
+  /// with ffmpeg's messages when it failed.
+  VideoResult Finish();
+
+ private:
+  std::string FfmpegMessages() const;
+  void Stop();
+
+  std::string path_;
+  VideoOptions options_;
+  pid_t pid_ = -1;
+  int pipe_ = -1;           // ffmpeg's stdin
+  std::string log_path_;    // ffmpeg's stderr
+  std::string sequence_stem_;  // "dir/out" of dir/out-000000.png (no ffmpeg)
+  bool finished_ = false;
+  VideoResult result_;
+};
+
+}  // namespace yamor::render

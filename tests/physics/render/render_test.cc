@@ -1,0 +1,339 @@
+// Pixel tests of the headless renderer on synthetic scenes: colours where the
+// camera projects a module, the ground elsewhere, motion by the projected
+// amount, bit-identical frames, both backends, several threads.
+#include "physics/render/renderer.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <string>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "common/status.h"
+#include "physics/render/image.h"
+
+namespace yamor::render {
+namespace {
+
+constexpr int kModuleId = 1;  // blue: {0.20, 0.55, 0.90}
+
+// One module: a 10 cm body cube (its centre at `position`) and a flat
+// handle box in front of it.
+Scene OneModule(const Eigen::Vector3d& position) {
+  Scene scene;
+  scene.time = 1.25;
+  scene.shape = {
+      ShapeBox{.part = ShapePart::kBody, .center = Eigen::Vector3d::Zero(),
+               .size = Eigen::Vector3d(0.1, 0.1, 0.1)},
+      ShapeBox{.part = ShapePart::kHandle, .center = Eigen::Vector3d(0.02, 0, 0),
+               .size = Eigen::Vector3d(0.04, 0.06, 0.02)},
+  };
+  SceneModule m;
+  m.id = kModuleId;
+  m.central = true;
+  m.body.position = position;
+  m.handle.position = position + Eigen::Vector3d(0.07, 0, 0);
+  scene.modules.push_back(m);
+  return scene;
+}
+
+RenderOptions Flat() {
+  return RenderOptions{.lighting = false, .edges = false, .grid = false, .shadows = false,
+                       .labels = false, .legend = false};
+}
+
+Camera FixedCamera() {
+  Camera camera;
+  camera.kind = CameraKind::kFixed;
+  camera.eye = Eigen::Vector3d(0.8, -1.0, 0.7);
+  camera.target = Eigen::Vector3d(0.0, 0.0, 0.05);
+  return camera;
+}
+
+std::array<int, 3> Rgb(const Color& c) {
+  return {static_cast<int>(std::lround(c[0] * 255)), static_cast<int>(std::lround(c[1] * 255)),
+          static_cast<int>(std::lround(c[2] * 255))};
+}
+
+// True when the pixel is within 1 of `c` in every channel.
+bool Near(const std::array<uint8_t, 4>& pixel, const Color& c) {
+  const std::array<int, 3> want = Rgb(c);
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(pixel[i] - want[i]) > 1) return false;
+  }
+  return true;
+}
+
+std::string Describe(const std::array<uint8_t, 4>& p) {
+  return fmt::format("({}, {}, {})", p[0], p[1], p[2]);
+}
+
+// Centroid of the pixels exactly of colour `c`; count in `n`.
+Eigen::Vector2d Centroid(const Image& image, const Color& c, int& n) {
+  Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+  n = 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      if (Near(image.At(x, y), c)) {
+        sum += Eigen::Vector2d(x + 0.5, y + 0.5);
+        ++n;
+      }
+    }
+  }
+  return n > 0 ? Eigen::Vector2d(sum / n) : sum;
+}
+
+class RenderTest : public ::testing::TestWithParam<Backend> {
+ protected:
+  void SetUp() override {
+    try {
+      renderer_ = std::make_unique<Renderer>(GetParam());
+    } catch (const Error& e) {
+      // OSMesa is gone from Mesa >= 25.1; EGL may lack a software driver.
+      GTEST_SKIP() << BackendName(GetParam()) << " unavailable here: " << e.what();
+    }
+  }
+  std::unique_ptr<Renderer> renderer_;
+};
+
+TEST_P(RenderTest, ModuleColourAtItsProjectedCentreAndGroundElsewhere) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const Camera camera = FixedCamera();
+  const Image image = renderer_->Render(scene, camera, 320, 240, Flat());
+  ASSERT_EQ(image.width, 320);
+  ASSERT_EQ(image.rgba.size(), 320u * 240u * 4u);
+  const View view = ComputeView(camera, scene, 320, 240);
+  const Eigen::Vector2d centre = *Project(view, scene.modules[0].body.position);
+  // The target is the middle of the image.
+  EXPECT_NEAR(Project(view, camera.target)->x(), 160.0, 1e-9);
+  EXPECT_NEAR(Project(view, camera.target)->y(), 120.0, 1e-9);
+  const auto px = image.At(static_cast<int>(centre.x()), static_cast<int>(centre.y()));
+  EXPECT_TRUE(Near(px, ModuleColor(kModuleId))) << Describe(px);
+  // A ground point half a metre away, and the sky in the top row.
+  const Eigen::Vector2d ground = *Project(view, Eigen::Vector3d(-0.5, 0.3, 0.0));
+  const auto gp = image.At(static_cast<int>(ground.x()), static_cast<int>(ground.y()));
+  EXPECT_TRUE(Near(gp, kGroundColor)) << Describe(gp);
+  // Looking almost level, the top rows show the sky.
+  Camera level;
+  level.elevation = 0.1;
+  const Image horizon = renderer_->Render(scene, level, 320, 240, Flat());
+  EXPECT_TRUE(Near(horizon.At(5, 0), kSkyColor)) << Describe(horizon.At(5, 0));
+  EXPECT_TRUE(Near(horizon.At(5, 239), kGroundColor)) << Describe(horizon.At(5, 239));
+  for (int i = 3; i < static_cast<int>(image.rgba.size()); i += 4) ASSERT_EQ(image.rgba[i], 255);
+}
+
+TEST_P(RenderTest, TopCameraLooksStraightDownWithYUp) {
+  const Scene scene = OneModule(Eigen::Vector3d(0.3, 0.2, 0.05));
+  Camera camera;
+  camera.kind = CameraKind::kTop;
+  const Image image = renderer_->Render(scene, camera, 640, 480, Flat());
+  const View view = ComputeView(camera, scene, 640, 480);
+  const Eigen::Vector2d p = *Project(view, scene.modules[0].body.position);
+  EXPECT_GT(p.x(), 320.0);  // +x is right
+  EXPECT_LT(p.y(), 240.0);  // +y is up
+  EXPECT_TRUE(Near(image.At(static_cast<int>(p.x()), static_cast<int>(p.y())),
+                   ModuleColor(kModuleId)));
+  // The ceiling camera's view: 2.7 m up, about 3.3 m of floor across 640 px.
+  const double metres_per_pixel = 2.7 * 2 * std::tan(kCeilingCameraFov / 2) / 480;
+  EXPECT_NEAR(p.x() - 320.0, 0.3 / metres_per_pixel * 2.7 / (2.7 - 0.05), 0.5);
+}
+
+TEST_P(RenderTest, MovingTenCentimetresMovesTheImageByTheProjectedAmount) {
+  Camera camera;
+  camera.kind = CameraKind::kTop;
+  camera.height = 1.5;
+  const Scene before = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const Scene after = OneModule(Eigen::Vector3d(0.1, 0, 0.05));
+  int n_before = 0;
+  int n_after = 0;
+  const Eigen::Vector2d c0 =
+      Centroid(renderer_->Render(before, camera, 320, 240, Flat()), ModuleColor(kModuleId), n_before);
+  const Eigen::Vector2d c1 =
+      Centroid(renderer_->Render(after, camera, 320, 240, Flat()), ModuleColor(kModuleId), n_after);
+  ASSERT_GT(n_before, 100);
+  EXPECT_NEAR(n_before, n_after, n_before / 10);  // rasterised at other sub-pixel offsets
+  const View view = ComputeView(camera, before, 320, 240);
+  const Eigen::Vector2d expected = *Project(view, Eigen::Vector3d(0.1, 0, 0.1)) -
+                                   *Project(view, Eigen::Vector3d(0, 0, 0.1));  // top face
+  EXPECT_GT(expected.x(), 10.0);
+  EXPECT_NEAR((c1 - c0).x(), expected.x(), 0.6);
+  EXPECT_NEAR((c1 - c0).y(), expected.y(), 0.6);
+
+  // A perspective view from the side: the body centre's pixel moves by its
+  // projection (the nearer face is what shows, so allow a pixel).
+  const Camera side = FixedCamera();
+  const View side_view = ComputeView(side, before, 320, 240);
+  const Eigen::Vector2d p0 = *Project(side_view, before.modules[0].body.position);
+  const Eigen::Vector2d p1 = *Project(side_view, after.modules[0].body.position);
+  const Image moved = renderer_->Render(after, side, 320, 240, Flat());
+  EXPECT_TRUE(Near(moved.At(static_cast<int>(p1.x()), static_cast<int>(p1.y())),
+                   ModuleColor(kModuleId)));
+  EXPECT_GT((p1 - p0).norm(), 5.0);
+}
+
+TEST_P(RenderTest, FramesAreBitIdenticalAcrossRunsAndRenderers) {
+  Scene scene = OneModule(Eigen::Vector3d(0.05, -0.02, 0.06));
+  scene.modules[0].body.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, 0.5, 1).normalized()));
+  scene.boxes.push_back(StaticBox{.pose = {.position = Eigen::Vector3d(-0.3, 0.2, 0.05)},
+                                  .size = Eigen::Vector3d(0.2, 0.1, 0.1)});
+  Camera camera;  // follow, everything drawn
+  const Image a = renderer_->Render(scene, camera, 320, 240);
+  const Image b = renderer_->Render(scene, camera, 320, 240);
+  EXPECT_TRUE(a == b);
+  const Image other_size = renderer_->Render(scene, camera, 64, 48);
+  EXPECT_EQ(other_size.width, 64);
+  Renderer second(GetParam());
+  EXPECT_TRUE(second.Render(scene, camera, 320, 240) == a);
+  EXPECT_EQ(EncodePng(a), EncodePng(b));
+}
+
+TEST_P(RenderTest, LightingKeepsTheHueShadowsAndGridDarkenTheGround) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const Camera camera = FixedCamera();
+  RenderOptions options;
+  options.labels = false;
+  options.legend = false;
+  const Image image = renderer_->Render(scene, camera, 320, 240, options);
+  const View view = ComputeView(camera, scene, 320, 240);
+  const Eigen::Vector2d centre = *Project(view, scene.modules[0].body.position);
+  const auto px = image.At(static_cast<int>(centre.x()), static_cast<int>(centre.y()));
+  const Color c = ModuleColor(kModuleId);  // blue-ish: blue dominates
+  ASSERT_GT(c[2], c[0]);
+  EXPECT_GT(px[2], px[0]) << Describe(px);
+  // The shadow falls on the ground beside the body (the light leans to -x, -y).
+  const Eigen::Vector2d shadow = *Project(view, Eigen::Vector3d(0.05, 0.08, 0.0));
+  const auto sp = image.At(static_cast<int>(shadow.x()), static_cast<int>(shadow.y()));
+  const auto ground = Rgb(kGroundColor);
+  EXPECT_LT(sp[0], ground[0] - 40) << Describe(sp);
+  // A 1 m grid line through the origin, away from the module.
+  const Eigen::Vector2d line = *Project(view, Eigen::Vector3d(0.0, 0.6, 0.0));
+  const auto lp = image.At(static_cast<int>(line.x()), static_cast<int>(line.y()));
+  EXPECT_LT(lp[0], ground[0] - 10) << Describe(lp);
+}
+
+TEST_P(RenderTest, LegendAndLabelsShowIdsAndTime) {
+  Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const Camera camera = FixedCamera();
+  RenderOptions legend_only = Flat();
+  legend_only.legend = true;
+  const Image image = renderer_->Render(scene, camera, 320, 240, legend_only);
+  // The strip at the bottom: dark, with the module's colour swatch at its left.
+  EXPECT_LT(image.At(160, 239)[0], 60);
+  EXPECT_TRUE(Near(image.At(3, 233), ModuleColor(kModuleId))) << Describe(image.At(3, 233));
+  // White text: the id and the time.
+  int white = 0;
+  for (int y = 226; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) white += image.At(x, y)[0] == 255 && image.At(x, y)[2] == 255;
+  }
+  EXPECT_GT(white, 20);
+  // Labels change pixels up and right of the centre, not the centre itself.
+  RenderOptions labels = Flat();
+  labels.labels = true;
+  const Image labelled = renderer_->Render(scene, camera, 320, 240, labels);
+  const Image plain = renderer_->Render(scene, camera, 320, 240, Flat());
+  const View view = ComputeView(camera, scene, 320, 240);
+  const Eigen::Vector2d centre = *Project(view, scene.modules[0].body.position);
+  EXPECT_EQ(labelled.At(static_cast<int>(centre.x()), static_cast<int>(centre.y())),
+            plain.At(static_cast<int>(centre.x()), static_cast<int>(centre.y())));
+  EXPECT_FALSE(labelled == plain);
+}
+
+TEST_P(RenderTest, SeveralThreadsRenderInParallelWithTheirOwnContexts) {
+  const Camera camera;
+  std::vector<Scene> scenes;
+  for (int i = 0; i < 4; ++i) scenes.push_back(OneModule(Eigen::Vector3d(0.1 * i, 0, 0.05)));
+  std::vector<Image> sequential;
+  for (const Scene& s : scenes) sequential.push_back(renderer_->Render(s, camera, 160, 120));
+  std::vector<Image> parallel(scenes.size());
+  std::vector<std::thread> threads;
+  const Backend backend = GetParam();
+  for (std::size_t i = 0; i < scenes.size(); ++i) {
+    threads.emplace_back([&, i] {
+      Renderer own(backend);
+      for (int repeat = 0; repeat < 3; ++repeat) parallel[i] = own.Render(scenes[i], camera, 160, 120);
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  for (std::size_t i = 0; i < scenes.size(); ++i) EXPECT_TRUE(parallel[i] == sequential[i]) << i;
+}
+
+TEST_P(RenderTest, BadSizesCamerasAndScenesAreRefusedNamingTheValue) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  auto code_of = [&](const Scene& s, const Camera& c, int w, int h) {
+    try {
+      renderer_->Render(s, c, w, h);
+    } catch (const Error& e) {
+      return std::pair<StatusCode, std::string>(e.code(), e.what());
+    }
+    return std::pair<StatusCode, std::string>(StatusCode::kOk, "");
+  };
+  EXPECT_EQ(code_of(scene, Camera{}, 0, 240),
+            std::make_pair(StatusCode::kOutOfRange, std::string("frame width 0 is outside 1..4096")));
+  EXPECT_EQ(code_of(scene, Camera{}, 320, 4097).first, StatusCode::kOutOfRange);
+  Camera nan;
+  nan.azimuth = std::nan("");
+  EXPECT_EQ(code_of(scene, nan, 320, 240),
+            std::make_pair(StatusCode::kInvalidArgument, std::string("camera azimuth is not finite: nan")));
+  Camera degenerate = FixedCamera();
+  degenerate.eye = degenerate.target;
+  EXPECT_EQ(code_of(scene, degenerate, 320, 240).first, StatusCode::kInvalidArgument);
+  Camera wide;
+  wide.fov = 3.5;
+  EXPECT_EQ(code_of(scene, wide, 320, 240).first, StatusCode::kOutOfRange);
+  Camera far;
+  far.distance = 0.0;
+  EXPECT_EQ(code_of(scene, far, 320, 240).first, StatusCode::kOutOfRange);
+  Scene diverged = scene;
+  diverged.modules[0].body.position.x() = std::nan("");
+  EXPECT_EQ(code_of(diverged, Camera{}, 320, 240).first, StatusCode::kInvalidArgument);
+  Scene no_shape = scene;
+  no_shape.shape.clear();
+  EXPECT_EQ(code_of(no_shape, Camera{}, 320, 240).first, StatusCode::kInvalidArgument);
+  // Straight above a follow target is a view, not a degenerate one.
+  Camera above;
+  above.elevation = 1.5707963267948966;
+  EXPECT_EQ(code_of(scene, above, 32, 24).first, StatusCode::kOk);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, RenderTest, ::testing::Values(Backend::kOsMesa, Backend::kEgl),
+                         [](const auto& info) { return std::string(BackendName(info.param)); });
+
+TEST(RendererChoiceTest, NoBackendIsUnavailableNamingWhy) {
+  ::setenv("YAMOR_RENDER_BACKEND", "none", 1);
+  try {
+    Renderer renderer;
+    ADD_FAILURE() << "a renderer was created";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kUnavailable);
+    EXPECT_NE(std::string(e.what()).find("no renderer"), std::string::npos) << e.what();
+  }
+  ::setenv("YAMOR_RENDER_BACKEND", "vulkan", 1);
+  try {
+    Renderer renderer;
+    ADD_FAILURE() << "a renderer was created";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kUnavailable);
+  }
+  ::unsetenv("YAMOR_RENDER_BACKEND");
+}
+
+TEST(RendererChoiceTest, AutoPrefersOsMesaAndTheThreadRendererIsReused) {
+  try {
+    Renderer& a = ThreadRenderer();
+    Renderer& b = ThreadRenderer();
+    EXPECT_EQ(&a, &b);
+    EXPECT_FALSE(a.description().empty());
+    Renderer* other = nullptr;
+    std::thread([&] { other = &ThreadRenderer(); }).join();
+    EXPECT_NE(other, &a);
+  } catch (const Error& e) {
+    GTEST_SKIP() << "no renderer here: " << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace yamor::render

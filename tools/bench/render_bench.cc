@@ -1,0 +1,223 @@
+// Rendering cost for issue 14 (docs/benchmarks.md, "Rendering"): frames per
+// second of the headless renderer at 320x240 and 640x480 for the quadruped
+// and a 64-module snake (render only, and render + PNG), and the CPU cost of
+// a 20-s video at 25 fps (500 frames, rendered, encoded and piped to ffmpeg)
+// against the 20-s evaluation it shows. A plain program printing a table
+// (tools/bench/run.sh's plain_programs).
+//
+//   render_bench [--frames N] [--png DIR] [--backend osmesa|egl]
+//
+// --png DIR also writes a sample frame of each robot and camera there.
+// CPU times are the whole process's (llvmpipe rasterises on its own
+// threads) plus, for the video, ffmpeg's (a child process).
+#include <sys/resource.h>
+#include <time.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+
+#include "bridge/robot.h"
+#include "bridge/scene.h"
+#include "common/log.h"
+#include "cpg/config_xml.h"
+#include "host/config_frames.h"
+#include "physics/render/image.h"
+#include "physics/render/renderer.h"
+#include "physics/render/video.h"
+
+namespace {
+
+using yamor::render::Camera;
+using yamor::render::CameraKind;
+using yamor::render::Renderer;
+using yamor::render::Scene;
+
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+double ChildrenCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_CHILDREN, &usage);
+  auto seconds = [](const timeval& t) { return t.tv_sec + 1e-6 * t.tv_usec; };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+// A snake of n modules as configs/worlds/snake.xml builds it.
+yamor::physics::Morphology SnakeMorphology(int n) {
+  std::vector<yamor::physics::MorphologyModule> modules;
+  std::vector<yamor::physics::MorphologyConnection> connections;
+  for (int id = 0; id < n; ++id) {
+    modules.push_back({.id = id});
+    if (id > 0) {
+      connections.push_back({.from = id,
+                             .from_connector = yamor::physics::ConnectorId::kFront,
+                             .to = id - 1,
+                             .to_connector = yamor::physics::ConnectorId::kRear});
+    }
+  }
+  return yamor::physics::Morphology::Build(0, std::move(modules), std::move(connections),
+                                           Eigen::Vector3d::Zero(), "snake" + std::to_string(n));
+}
+
+// The quadruped with its configured gait, advanced `seconds`.
+std::unique_ptr<yamor::bridge::Robot> Quadruped(double seconds) {
+  auto robot = std::make_unique<yamor::bridge::Robot>(yamor::physics::Morphology::LoadFile(
+      std::string(YAMOR_SOURCE_DIR) + "/configs/worlds/quadruped.xml"));
+  std::vector<yamor::snp::Frame> out;
+  const auto config =
+      yamor::cpg::LoadConfigFile(std::string(YAMOR_SOURCE_DIR) + "/configs/robots/quadruped.xml");
+  for (const yamor::snp::Frame& frame : yamor::host::ConfigurationFrames(config)) {
+    robot->HandleFrame(frame, out);
+  }
+  robot->Advance(seconds, out);
+  return robot;
+}
+
+struct Rate {
+  double render_fps = 0;     // render only, wall clock
+  double png_fps = 0;        // render + fast PNG, wall clock
+  double render_cpu_ms = 0;  // CPU per frame (all threads), render only
+  double png_cpu_ms = 0;     // CPU per frame, render + PNG
+  double png_kib = 0;        // mean PNG size
+};
+
+Rate Measure(Renderer& renderer, const Scene& scene, const Camera& camera, int w, int h,
+             int frames) {
+  renderer.Render(scene, camera, w, h);  // warm-up: buffers, shader compilation
+  Rate rate;
+  auto start = std::chrono::steady_clock::now();
+  double cpu = ProcessCpuSeconds();
+  for (int i = 0; i < frames; ++i) renderer.Render(scene, camera, w, h);
+  rate.render_cpu_ms = (ProcessCpuSeconds() - cpu) * 1e3 / frames;
+  rate.render_fps =
+      frames / std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::size_t bytes = 0;
+  start = std::chrono::steady_clock::now();
+  cpu = ProcessCpuSeconds();
+  for (int i = 0; i < frames; ++i) {
+    bytes += yamor::render::EncodePng(renderer.Render(scene, camera, w, h), true).size();
+  }
+  rate.png_cpu_ms = (ProcessCpuSeconds() - cpu) * 1e3 / frames;
+  rate.png_fps =
+      frames / std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  rate.png_kib = static_cast<double>(bytes) / frames / 1024.0;
+  return rate;
+}
+
+void WritePng(const std::string& path, const yamor::render::Image& image) {
+  const std::vector<uint8_t> png = yamor::render::EncodePng(image);
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"render_bench: headless rendering cost (docs/benchmarks.md)"};
+  int frames = 40;
+  std::string png_dir;
+  std::string backend_name = "auto";
+  app.add_option("--frames", frames, "Frames per measurement");
+  app.add_option("--png", png_dir, "Also write sample frames into this directory");
+  app.add_option("--backend", backend_name, "auto, osmesa or egl")
+      ->check(CLI::IsMember({"auto", "osmesa", "egl"}));
+  CLI11_PARSE(app, argc, argv);
+  yamor::SetLogLevel("warn");
+  const yamor::render::Backend backend = backend_name == "osmesa" ? yamor::render::Backend::kOsMesa
+                                         : backend_name == "egl"  ? yamor::render::Backend::kEgl
+                                                                  : yamor::render::Backend::kAuto;
+  Renderer renderer(backend);
+  std::printf("renderer: %s\n\n", renderer.description().c_str());
+
+  const auto quadruped = Quadruped(8.0);
+  yamor::bridge::Robot snake(SnakeMorphology(64));
+  struct Case {
+    const char* name;
+    Scene scene;
+    Camera camera;
+  };
+  Camera follow;
+  Camera snake_view;
+  snake_view.distance = 4.0;
+  snake_view.elevation = 0.6;
+  std::vector<Case> cases = {{"quadruped", yamor::bridge::SceneOf(quadruped->world()), follow},
+                             {"snake64", yamor::bridge::SceneOf(snake.world()), snake_view}};
+
+  std::printf("%-10s %-8s %11s %15s %14s %18s %8s\n", "robot", "size", "render fps",
+              "render+png fps", "render CPU ms", "render+png CPU ms", "png KiB");
+  for (const Case& c : cases) {
+    for (auto [w, h] : {std::pair{320, 240}, std::pair{640, 480}}) {
+      const Rate r = Measure(renderer, c.scene, c.camera, w, h, frames);
+      std::printf("%-10s %-8s %11.1f %15.1f %14.2f %18.2f %8.1f\n", c.name,
+                  fmt::format("{}x{}", w, h).c_str(), r.render_fps, r.png_fps, r.render_cpu_ms,
+                  r.png_cpu_ms, r.png_kib);
+    }
+  }
+
+  // A 20-s video at 25 fps of the 20-s evaluation it shows (quadruped).
+  const double eval_cpu_start = ProcessCpuSeconds();
+  const auto evaluated = Quadruped(20.0);
+  const double eval_cpu = ProcessCpuSeconds() - eval_cpu_start;
+  auto robot = Quadruped(0.0);
+  std::vector<yamor::snp::Frame> out;
+  const std::string video_path =
+      (std::filesystem::temp_directory_path() / ("render_bench_" + std::to_string(getpid()) + ".mp4"))
+          .string();
+  const double cpu_start = ProcessCpuSeconds();
+  const double children_start = ChildrenCpuSeconds();
+  double frames_cpu = 0;
+  yamor::render::VideoResult video;
+  {
+    yamor::render::VideoWriter writer(video_path, {.frame_rate = 25});
+    for (int i = 0; i < 500; ++i) {
+      const double t0 = ProcessCpuSeconds();
+      writer.AddFrame(yamor::render::EncodePng(
+          renderer.Render(yamor::bridge::SceneOf(robot->world()), follow, 320, 240), true));
+      frames_cpu += ProcessCpuSeconds() - t0;
+      robot->Advance(0.04, out);
+    }
+    video = writer.Finish();
+  }
+  const double total_cpu = ProcessCpuSeconds() - cpu_start;
+  const double ffmpeg_cpu = ChildrenCpuSeconds() - children_start;
+  std::filesystem::remove(video_path);
+  std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames):\n");
+  std::printf("  evaluation alone (20 s simulated)   %7.2f s CPU\n", eval_cpu);
+  std::printf("  frames: render + PNG                 %7.2f s CPU (%.2fx the evaluation)\n",
+              frames_cpu, frames_cpu / eval_cpu);
+  std::printf("  ffmpeg (H.264)                       %7.2f s CPU%s\n", ffmpeg_cpu,
+              video.video ? "" : " (no ffmpeg: PNG sequence)");
+  std::printf("  whole video run incl. simulation     %7.2f s CPU\n", total_cpu + ffmpeg_cpu);
+  std::printf("  video cost / evaluation              %7.2fx\n", (frames_cpu + ffmpeg_cpu) / eval_cpu);
+  if (!video.video) {
+    for (int i = 0; i < video.frames; ++i) {
+      std::filesystem::remove(fmt::format("{}-{:06d}.png", video_path.substr(0, video_path.size() - 4), i));
+    }
+  }
+
+  if (!png_dir.empty()) {
+    std::filesystem::create_directories(png_dir);
+    Camera top;
+    top.kind = CameraKind::kTop;
+    const Scene walked = yamor::bridge::SceneOf(evaluated->world());
+    top.target = walked.Central()->body.position;
+    top.target.z() = 0;
+    top.height = 1.2;
+    WritePng(png_dir + "/quadruped_follow.png", renderer.Render(cases[0].scene, follow, 640, 480));
+    WritePng(png_dir + "/quadruped_top.png", renderer.Render(walked, top, 640, 480));
+    WritePng(png_dir + "/snake64.png", renderer.Render(cases[1].scene, snake_view, 640, 480));
+    std::printf("\nsample frames in %s\n", png_dir.c_str());
+  }
+  (void)evaluated;
+  return 0;
+}
