@@ -98,6 +98,19 @@ RunIdentity EvaluationIdentity(const OptimizationConfig& config,
                 " duration=" + FormatDouble(settings.duration) +
                 " seed=" + std::to_string(settings.seed) +
                 " time_step=" + FormatDouble(settings.time_step);
+  // The robot's condition (model-mode evaluations) changes every velocity too.
+  for (const auto& [id, defect] : settings.motor_defects) {
+    evaluation += " motor_defect." + std::to_string(id) + "=" +
+                  std::to_string(static_cast<int>(defect));
+  }
+  for (int id : settings.module_defects) evaluation += " module_defect." + std::to_string(id);
+  const auto optional = [&](const char* name, const std::optional<double>& value) {
+    if (value) evaluation += std::string(" ") + name + "=" + FormatDouble(*value);
+  };
+  optional("ground_friction", settings.ground_friction);
+  optional("ground_slope", settings.ground_slope);
+  optional("ground_slope_direction", settings.ground_slope_direction);
+  if (settings.upside_down) evaluation += " upside_down";
   return {{"configuration", Fingerprint(canonical)}, {"evaluation", evaluation}};
 }
 

@@ -53,6 +53,7 @@ WRAPPER = {
     "SetGround": "set_ground",
     "GetServoAngles": "servo_angles",
     "GetAccelerometer": "accelerometer",
+    "GetOrientation": "orientation",
     "ResetSimulation": "reset",
     "TurnUpsideDown": "turn_upside_down",
     "WatchState": "watch",
@@ -121,6 +122,8 @@ def test_thesis_session_moves_the_robot(host):
     assert any(abs(a) > 0.05 for a in angles.values())
     samples = host.accelerometer(opened.module_ids[0], samples=3)  # UART is on
     assert len(samples) == 3
+    upright = host.orientation(opened.module_ids[0])
+    assert upright.samples == 16 and not upright.upside_down
     # Reset returns to time 0 at the start pose.
     host.reset()
     assert host.elapsed_time() == 0.0
@@ -173,6 +176,7 @@ def test_config_save_load_round_trip(fresh):
     (lambda h: h.open_simulation(world="no-such-world"), "NOT_FOUND"),
     (lambda h: h.evaluate({"bogus.1": 1.0}), "INVALID_ARGUMENT"),
     (lambda h: h.accelerometer(0, samples=17), "OUT_OF_RANGE"),
+    (lambda h: h.orientation(0, samples=17), "OUT_OF_RANGE"),
     (lambda h: h.sleep(-1.0), "OUT_OF_RANGE"),
 ])
 def test_errors_raise_host_error_and_the_daemon_survives(fresh, call, code):
@@ -245,6 +249,22 @@ def test_evaluate_is_deterministic(fresh):
     assert c.velocity != a.velocity
     # Evaluate is stateless: the daemon's world did not move.
     assert fresh.elapsed_time() == 0.0
+
+
+def test_evaluate_takes_the_robots_condition(fresh):
+    healthy = fresh.evaluate(seed=5, warmup=1, duration=2)
+    for condition in ({"motor_defects": {2: "limp"}}, {"module_defects": [3]},
+                      {"friction": 0.05}, {"upside_down": True}):
+        changed = fresh.evaluate(seed=5, warmup=1, duration=2, **condition)
+        assert changed.velocity != healthy.velocity, condition
+    with pytest.raises(yamor.HostError) as error:
+        fresh.evaluate(seed=5, warmup=1, duration=2, module_defects=[99])
+    assert error.value.code == "NOT_FOUND" and "module 99" in error.value.message
+    with pytest.raises(yamor.HostError) as error:
+        fresh.evaluate(seed=5, warmup=1, duration=2, slope=2.0)
+    assert error.value.code == "OUT_OF_RANGE"
+    with pytest.raises(ValueError):
+        fresh.evaluate(motor_defects={2: "melted"})
 
 
 def test_watch_yields_updates_and_events(fresh):
