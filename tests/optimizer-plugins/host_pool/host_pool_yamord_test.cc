@@ -10,8 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 #include <future>
 #include <map>
 #include <set>
@@ -226,10 +228,12 @@ TEST(HostPoolYamordTest, TheRobotsConditionReachesEveryEvaluation) {
   }
 }
 
-// Issue 17 §3: daemons started and stopped mid-batch, joining and leaving
-// through the host file; no slot is lost or filled twice, and every result is
-// the daemon's own answer for its candidate.
-TEST(HostPoolYamordTest, HostFileGrowsAndShrinksWhileABatchRuns) {
+// Issue 17 §3: daemons started and stopped while batches run, joining and
+// leaving through the host file; no slot is lost or filled twice, and every
+// result is the daemon's own answer for its candidate. Batches go on (as a
+// plugin's would) until the last daemon has worked alone, so no step races
+// the machine's speed.
+TEST(HostPoolYamordTest, HostFileGrowsAndShrinksWhileBatchesRun) {
   EvaluationSettings settings = Quadruped();
   settings.warmup = 0.3;
   settings.duration = 0.5;
@@ -252,43 +256,69 @@ TEST(HostPoolYamordTest, HostFileGrowsAndShrinksWhileABatchRuns) {
   write({a.get()});
   HostPool pool(ParseHosts("@" + path), settings, FastRetry());
   HostListWatcher watcher(path, pool, 0.05);
-  // Each gait twice: equal results prove no slot got another's reply.
-  std::vector<Candidate> batch;
-  for (const Candidate& c : Gaits(15)) {
-    batch.push_back(c);
-    batch.push_back(c);
-  }
-  auto result =
-      std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch, seconds(120)); });
-  ASSERT_TRUE(WaitFor([&] { return completed(pool, *a) >= 2; }, seconds(60)));
 
-  Daemon b(1);  // started mid-batch and listed
-  ASSERT_GT(b.port(), 0);
+  // Batches of 4 gaits, each twice: equal results prove no slot got
+  // another's reply.
+  std::atomic<bool> enough{false};
+  std::vector<std::pair<std::vector<Candidate>, std::vector<Evaluation>>> done;
+  std::thread producer([&] {
+    for (int k = 0; !enough.load() && k < 200; ++k) {
+      std::vector<Candidate> batch;
+      for (int i = 0; i < 4; ++i) {
+        const Candidate c{{{"phase.0.1", 0.1 * (4 * k + i)}, {"amplitude.5", 0.3 + 0.01 * i}}};
+        batch.push_back(c);
+        batch.push_back(c);
+      }
+      std::vector<Evaluation> results = EvaluateGuarded(pool, batch, seconds(90));
+      done.emplace_back(std::move(batch), std::move(results));
+    }
+  });
+  const auto finish = [&] {
+    enough = true;
+    producer.join();
+  };
+  if (!WaitFor([&] { return completed(pool, *a) >= 2; }, seconds(60))) {
+    finish();
+    FAIL() << "a did no work";
+  }
+  Daemon b(1);  // started mid-run and listed
   write({a.get(), &b});
-  ASSERT_TRUE(WaitFor([&] { return completed(pool, b) >= 1; }, seconds(60)));
-
-  write({&b});  // a is unlisted: it finishes its evaluation, then leaves
-  ASSERT_TRUE(WaitFor([&] { return completed(pool, *a) == -1; }, seconds(60)));
-  a.reset();    // and is stopped
-
-  Daemon c(1);  // another one joins, then b dies without being unlisted
-  ASSERT_GT(c.port(), 0);
-  write({&b, &c});
-  ASSERT_TRUE(WaitFor([&] { return completed(pool, c) >= 1; }, seconds(60)));
-  b.Kill();
-
-  const std::vector<Evaluation> results = result.get();
-  ASSERT_EQ(results.size(), batch.size());
-  std::map<std::string, int> per_host;
-  for (const Evaluation& e : results) ++per_host[e.host];
-  EXPECT_EQ(per_host.size(), 3u) << "a, b and c each scored some";
-  for (std::size_t i = 0; i < batch.size(); i += 2) {
-    EXPECT_EQ(results[i].velocity, results[i + 1].velocity) << "slots " << i << ", " << i + 1;
-    EXPECT_FALSE(results[i].diverged);
+  if (!WaitFor([&] { return completed(pool, b) >= 1; }, seconds(60))) {
+    finish();
+    FAIL() << "b never joined";
   }
-  for (std::size_t i = 0; i < batch.size(); i += 6) {
-    const yamor::v1::EvaluateResponse direct = DirectEvaluate(c.address(), settings, batch[i]);
-    EXPECT_EQ(results[i].velocity, direct.velocity()) << "slot " << i << " bit-identical";
+  write({&b});  // a is unlisted: it finishes its evaluation, then leaves
+  if (!WaitFor([&] { return completed(pool, *a) == -1; }, seconds(60))) {
+    finish();
+    FAIL() << "a never drained";
+  }
+  a.reset();  // and is stopped
+  Daemon c(1);  // another one joins, then b dies without being unlisted
+  write({&b, &c});
+  if (!WaitFor([&] { return completed(pool, c) >= 1; }, seconds(60))) {
+    finish();
+    FAIL() << "c never joined";
+  }
+  b.Kill();
+  const long long on_c = completed(pool, c);
+  const bool alone = WaitFor([&] { return completed(pool, c) >= on_c + 4; }, seconds(60));
+  finish();
+  ASSERT_TRUE(alone) << "c did not go on alone";
+
+  std::map<std::string, int> per_host;
+  for (const auto& [batch, results] : done) {
+    ASSERT_EQ(results.size(), batch.size());
+    for (const Evaluation& e : results) ++per_host[e.host];
+    for (std::size_t i = 0; i < batch.size(); i += 2) {
+      EXPECT_EQ(results[i].velocity, results[i + 1].velocity) << "slots " << i << ", " << i + 1;
+      EXPECT_FALSE(results[i].diverged);
+    }
+  }
+  EXPECT_EQ(per_host.size(), 3u) << "a, b and c each scored some";
+  for (std::size_t k = 0; k < done.size(); k += 3) {
+    const yamor::v1::EvaluateResponse direct =
+        DirectEvaluate(c.address(), settings, done[k].first[0]);
+    EXPECT_EQ(done[k].second[0].velocity, direct.velocity()) << "batch " << k << " bit-identical";
   }
   EXPECT_EQ(watcher.Applied(), 3);
 }
