@@ -106,6 +106,7 @@ class RecordingHost final : public v1::Host::Service {
   YAMOR_FAKE(TurnUpsideDown, Empty, Empty)
   YAMOR_FAKE(Evaluate, v1::EvaluateRequest, v1::EvaluateResponse)
   YAMOR_FAKE(SetFreeRun, v1::SetFreeRunRequest, Empty)
+  YAMOR_FAKE(SimulatedPosition, Empty, v1::RobotPositionResponse)
 #undef YAMOR_FAKE
 
   grpc::Status WatchState(grpc::ServerContext* context, const v1::WatchStateRequest* request,
@@ -214,6 +215,7 @@ TEST_F(YamorctlTest, EveryCommandSendsItsRequest) {
   const std::vector<CommandCase> cases = {
       {{"time"}, "ElapsedTime", ""},
       {{"position"}, "RobotPosition", ""},
+      {{"position", "--simulated"}, "SimulatedPosition", ""},
       {{"sim-enabled"}, "SimulationModeEnabled", ""},
       {{"couple", "2", "5", "1.5", "0.5"}, "AddCoupling",
        "from_id: 2 to_id: 5 phase: 1.5 weight: 0.5"},

@@ -288,9 +288,19 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
                      return fmt::format("{:.3f} s\n", r.seconds());
                    });
   });
-  simple("position", "Position of the central (tracked) module", [empty](Session& s) {
-    return s.Unary(&v1::Host::Stub::RobotPosition, empty, s.Timeout(), FormatPosition);
-  });
+  {
+    auto simulated = std::make_shared<bool>(false);
+    CLI::App* c = app.add_subcommand("position", "Position of the central (tracked) module");
+    c->add_flag("--simulated", *simulated,
+                "The simulation's own position, whatever the position source (SimulatedPosition)");
+    c->callback([&action, simulated, empty] {
+      action = [simulated, empty](Session& s) {
+        return s.Unary(*simulated ? &v1::Host::Stub::SimulatedPosition
+                                  : &v1::Host::Stub::RobotPosition,
+                       empty, s.Timeout(), FormatPosition);
+      };
+    });
+  }
   simple("sim-enabled", "Whether a simulation is open", [empty](Session& s) {
     return s.Unary(&v1::Host::Stub::SimulationModeEnabled, empty, s.Timeout(),
                    [](const v1::SimulationModeEnabledResponse& r) {
