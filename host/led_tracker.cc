@@ -164,11 +164,17 @@ struct LedTracker::Impl {
     {
       std::lock_guard lock(mutex_);
       sample.connection = connections_;
+    }
+    {
+      // Before the sample becomes the latest: whoever waited for it finds it handled.
+      std::lock_guard lock(handler_mutex_);
+      if (handler_) handler_(sample);
+    }
+    {
+      std::lock_guard lock(mutex_);
       latest_ = sample;
     }
     sample_cv_.notify_all();
-    std::lock_guard lock(handler_mutex_);
-    if (handler_) handler_(sample);
   }
 
   void Fail(const std::string& why) {

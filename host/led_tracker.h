@@ -98,7 +98,8 @@ class LedTracker {
   TrackedPosition Locate(const LedSample& sample) const;
 
   /// Calls `handler` on the tracker's I/O thread with every sample received
-  /// from now on (it must return quickly and not call back into the tracker);
+  /// from now on, before it becomes the latest sample (it must return quickly,
+  /// and not set a handler or wait for a sample: Locate is fine);
   /// an empty handler removes it. Returns once no call of the previous
   /// handler is in flight.
   void SetSampleHandler(std::function<void(const LedSample&)> handler);
