@@ -17,6 +17,7 @@
 
 #include "common/status.h"
 #include "tools/yamorctl/format.h"
+#include "tools/yamorctl/tracking.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::yamorctl {
@@ -797,6 +798,66 @@ void AddWatch(CLI::App& app, Action& action, const GlobalOptions& global) {
   });
 }
 
+// ---- LED tracking (local: the camera application and files, no daemon) -----------
+
+void AddTracking(CLI::App& app, Action& action, const GlobalOptions& global) {
+  {
+    auto a = std::make_shared<TrackOptions>();
+    auto image = std::make_shared<std::vector<int>>(std::vector<int>{a->width, a->height});
+    CLI::App* c = app.add_subcommand(
+        "track", "Read the LED tracker's camera (CamApp, yamor-camapp): raw and corrected "
+                 "positions, printed or --record FILE.csv (thesis C.2.5)");
+    c->add_option("--camapp", a->camapp, "Camera application HOST:PORT")->capture_default_str();
+    c->add_option("--calibration", a->calibration,
+                  "Calibration file: positions in metres too (without: raw pixels only)");
+    c->add_option("--image", *image, "Image width and height without a calibration [px]")
+        ->expected(2)
+        ->capture_default_str();
+    c->add_option("--record", a->record,
+                  "Write every sample as CSV (host_time, seq, camera_time_us, seen, pixel_x, "
+                  "pixel_y, x, y, connection)");
+    c->add_option("--seconds", a->seconds, "Stop after S seconds (0: until interrupted)")
+        ->check(CLI::NonNegativeNumber);
+    c->add_option("--samples", a->samples, "Stop after N samples (0: no limit)");
+    c->callback([&action, &global, a, image] {
+      action = [&global, a, image](Session& s) {
+        TrackOptions options = *a;
+        options.width = (*image)[0];
+        options.height = (*image)[1];
+        options.connect_timeout = global.timeout;  // not connected within --timeout: UNAVAILABLE
+        options.json = s.json();
+        return Track(options, s.out(), s.err());
+      };
+    });
+  }
+  {
+    struct Args {
+      CalibrateOptions options;
+      double led_height = 0.0;
+      CLI::Option* led_height_option = nullptr;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "calibrate", "Fit the camera's homography to pixel <-> metre reference points: the "
+                     "reprojection error of each, RMS and max; --output writes the calibration file");
+    c->add_option("POINTS_FILE", a->options.points,
+                  "A calibration file (docs/camapp.md), or with --lens lines \"x y X Y\" "
+                  "(raw pixel, metres)")
+        ->required();
+    c->add_option("--lens", a->options.lens, "Calibration file whose lens (and LED height) to use");
+    c->add_option("--output", a->options.output, "Write the calibration file here");
+    a->led_height_option = c->add_option("--led-height", a->led_height, "LED height to write [m]");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        CalibrateOptions options = a->options;
+        if (a->led_height_option->count()) options.led_height = a->led_height;
+        options.json = s.json();
+        return Calibrate(options, s.out(), s.err());
+      };
+    });
+  }
+}
+
 }  // namespace
 
 std::pair<std::string, double> ParseParameterAssignment(std::string_view text) {
@@ -861,6 +922,7 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   AddModelCommands(app, action);
   AddEvaluate(app, action);
   AddWatch(app, action, global);
+  AddTracking(app, action, global);
   app.footer(kFooter);  // after the commands, which would inherit it
 
   try {
