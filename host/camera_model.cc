@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 
@@ -410,6 +411,63 @@ CameraCalibration ParseCameraCalibration(std::string_view text, std::string_view
   if (!seen_focal) throw Invalid(at_end + "missing `focal <fx> <fy>`");
   if (!seen_principal) throw Invalid(at_end + "missing `principal <cx> <cy>`");
   return cal;
+}
+
+std::vector<ReferencePoint> ParseReferencePoints(std::string_view text, std::string_view name) {
+  std::vector<ReferencePoint> points;
+  int line_no = 0;
+  size_t pos = 0;
+  while (pos < text.size()) {
+    size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_no;
+    if (const size_t hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
+    auto f = Fields(line);
+    if (f.empty()) continue;
+    if (f[0] == "point") f.erase(f.begin());
+    const std::string at = std::string(name) + ":" + std::to_string(line_no) + ": ";
+    if (f.size() != 4) {
+      throw Invalid(at + "expected a reference point `x y X Y` (pixel, metres), got " +
+                    std::to_string(f.size()) + " values");
+    }
+    double v[4];
+    const char* what[4] = {"x", "y", "X", "Y"};
+    for (int i = 0; i < 4; ++i) {
+      char* stop = nullptr;
+      errno = 0;
+      v[i] = std::strtod(f[i].c_str(), &stop);
+      if (stop == f[i].c_str() || *stop != '\0' || errno == ERANGE || !std::isfinite(v[i])) {
+        throw Invalid(at + what[i] + " must be a finite number, got \"" + f[i] + "\"");
+      }
+    }
+    points.push_back({Eigen::Vector2d(v[0], v[1]), Eigen::Vector2d(v[2], v[3]), line_no});
+  }
+  return points;
+}
+
+std::string FormatCameraCalibration(const CameraCalibration& c, std::string_view comment) {
+  std::ostringstream out;
+  size_t pos = 0;
+  while (pos < comment.size()) {
+    size_t end = comment.find('\n', pos);
+    if (end == std::string_view::npos) end = comment.size();
+    out << "# " << comment.substr(pos, end - pos) << "\n";
+    pos = end + 1;
+  }
+  const LensParameters& l = c.lens;
+  out << "image " << l.width << " " << l.height << "\n";
+  out << "focal " << FormatDouble(l.fx) << " " << FormatDouble(l.fy) << "\n";
+  out << "principal " << FormatDouble(l.cx) << " " << FormatDouble(l.cy) << "\n";
+  out << "radial " << FormatDouble(l.k1) << " " << FormatDouble(l.k2) << " " << FormatDouble(l.k3) << "\n";
+  out << "tangential " << FormatDouble(l.p1) << " " << FormatDouble(l.p2) << "\n";
+  out << "led_height " << FormatDouble(c.led_height) << "\n";
+  for (const ReferencePoint& p : c.points) {
+    out << "point " << FormatDouble(p.pixel.x()) << " " << FormatDouble(p.pixel.y()) << " "
+        << FormatDouble(p.ground.x()) << " " << FormatDouble(p.ground.y()) << "\n";
+  }
+  return out.str();
 }
 
 CameraModel LoadCameraModel(const std::filesystem::path& path) {

@@ -88,6 +88,16 @@ struct CameraCalibration {
 /// "name:line: ..." (INVALID_ARGUMENT). Does not fit the homography.
 CameraCalibration ParseCameraCalibration(std::string_view text, std::string_view name);
 
+/// Parses a file of reference points only (`yamorctl calibrate`): one point
+/// per line, `x y X Y` (raw pixel, metres on the ground), optionally after
+/// the word `point`; `#` comments and blank lines as in a calibration file.
+/// INVALID_ARGUMENT "name:line: ..." for anything else.
+std::vector<ReferencePoint> ParseReferencePoints(std::string_view text, std::string_view name);
+
+/// A calibration file's text for `calibration` (every number written so it
+/// reads back exactly), after `comment` lines (each prefixed with "# ").
+std::string FormatCameraCalibration(const CameraCalibration& calibration, std::string_view comment);
+
 /// The camera: raw pixels -> metres on the ground plane at the LED's height.
 /// Thread-safety: immutable after construction; safe to share between threads.
 class CameraModel {

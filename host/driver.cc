@@ -79,9 +79,17 @@ RobotDriver::RobotDriver(DriverOptions options, cpg::RobotConfig config)
   std::vector<int> ids;
   for (const auto& m : config_.modules) ids.push_back(m.id);
   options_.id_map.CheckInjective(ids);
+  if (options_.position_from_tracker && !options_.tracker) {
+    throw Error(StatusCode::kInvalidArgument,
+                "the tracker as position source needs a tracker (--led-tracker HOST:PORT)");
+  }
+  if (options_.tracker) {
+    options_.tracker->SetHandler([this](const TrackedPose& pose) { OnTrackedPose(pose); });
+  }
 }
 
 RobotDriver::~RobotDriver() {
+  if (options_.tracker) options_.tracker->SetHandler(nullptr);  // no call in flight after this
   Shutdown();
   if (free_run_thread_.joinable()) free_run_thread_.join();
 }
@@ -180,7 +188,7 @@ void RobotDriver::StepLocked(double seconds) {
   try {
     const snp::Message m = BridgeRequestLocked(snp::Step{.duration = seconds},
                                                snp::MessageType::kStepDone);
-    sim_time_ = std::get<snp::StepDone>(m).time;
+    SetSimTimeLocked(std::get<snp::StepDone>(m).time);
   } catch (const Error& e) {
     // The bridge refuses a Step into a diverged world: ask where and why.
     if (e.code() == StatusCode::kFailedPrecondition) QueryDivergenceLocked();
@@ -190,15 +198,57 @@ void RobotDriver::StepLocked(double seconds) {
 }
 
 void RobotDriver::RecordSampleLocked() {
+  // With the tracker as the source, its samples feed WatchState (OnTrackedPose).
+  if (tracker_feed_.load() != kTrackerFeedNone) return;
   try {
-    const snp::Message m =
-        BridgeRequestLocked(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
-    const auto& p = std::get<snp::RobotPosition>(m);
-    state_.RecordSample(RobotPose{.time = p.time, .position = p.position,
-                                  .orientation = p.orientation, .source = "simulation"});
+    state_.RecordSample(SimulatedPoseLocked());
   } catch (const Error& e) {
     Log().debug("driver: no state sample: {}", e.what());
   }
+}
+
+RobotPose RobotDriver::SimulatedPoseLocked() {
+  const snp::Message m =
+      BridgeRequestLocked(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
+  const auto& p = std::get<snp::RobotPosition>(m);
+  sim_clock_.store(p.time);  // a free-running bridge advances on its own
+  return RobotPose{.time = p.time, .position = p.position, .orientation = p.orientation,
+                   .source = "simulation"};
+}
+
+void RobotDriver::SetSimTimeLocked(double seconds) {
+  sim_time_ = seconds;
+  sim_clock_.store(seconds);
+}
+
+void RobotDriver::UpdateTrackerFeedLocked() {
+  int feed = kTrackerFeedNone;
+  if (options_.tracker && backend_) {
+    if (!backend_->IsSimulation()) feed = kTrackerFeedReal;
+    else if (options_.position_from_tracker) feed = kTrackerFeedSim;
+  }
+  tracker_epoch_.store(attached_at_.time_since_epoch().count());
+  tracker_feed_.store(feed);
+}
+
+void RobotDriver::OnTrackedPose(const TrackedPose& tracked) {
+  if (!state_.Watched()) return;
+  RobotPose pose{.position = tracked.position, .source = "led-tracker"};
+  switch (tracker_feed_.load()) {
+    case kTrackerFeedReal:
+      pose.time = std::chrono::duration<double>(
+                      tracked.arrival - Clock::time_point(Clock::duration(tracker_epoch_.load())))
+                      .count();
+      break;
+    case kTrackerFeedSim:
+      // A frame from after the present simulation time is from before a reset.
+      if (tracked.camera_time > sim_clock_.load() + 1e-6) return;
+      pose.time = tracked.camera_time;
+      break;
+    default:
+      return;
+  }
+  state_.RecordSample(pose);
 }
 
 void RobotDriver::CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
@@ -225,7 +275,7 @@ void RobotDriver::ResetRobotStateLocked() {
   control_state_.clear();
   diverged_ = false;
   divergence_.clear();
-  sim_time_ = 0.0;
+  SetSimTimeLocked(0.0);
   motor_defects_.clear();
   module_defects_.clear();
   slope_ = 0.0;
@@ -292,6 +342,7 @@ OpenedSimulation RobotDriver::OpenSimulation(SimulationSpec spec) {
   ResetRobotStateLocked();
   time_step_ = time_step;
   attached_at_ = Clock::now();
+  UpdateTrackerFeedLocked();
   PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
   if (state_.Watched()) RecordSampleLocked();
   wake_.notify_all();
@@ -324,6 +375,7 @@ void RobotDriver::AttachBackend(std::unique_ptr<Backend> backend, std::string wo
     }
   }
   attached_at_ = Clock::now();
+  UpdateTrackerFeedLocked();
   PushEvent(StateEvent{.kind = "opened", .detail = world_name_});
 }
 
@@ -335,6 +387,7 @@ void RobotDriver::CloseSimulation() {
   world_morphology_.reset();
   world_name_.clear();
   ResetRobotStateLocked();
+  UpdateTrackerFeedLocked();
   PushEvent(StateEvent{.kind = "closed"});
 }
 
@@ -600,6 +653,7 @@ ConnectResult RobotDriver::ConnectRobot(double link_timeout, bool links_only,
   LinkTreeLocked(timeout, cancel, result);
   connected_ = true;
   attached_at_ = backend.IsSimulation() ? attached_at_ : Clock::now();
+  UpdateTrackerFeedLocked();
   PushEvent(StateEvent{.kind = "connected", .detail = Id(result.links) + " links"});
   if (!links_only) result.frames_sent += RefreshLocked();
   result.elapsed = SecondsSince(start);
@@ -640,9 +694,9 @@ int RobotDriver::RestoreAfterReopenLocked() {
   Backend& backend = *backend_;
   if (backend.IsSimulation()) {
     ReadSimInfoLocked();  // a restarted bridge may run another world
-    sim_time_ = std::get<snp::SimTime>(
-                    BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime))
-                    .seconds;
+    SetSimTimeLocked(std::get<snp::SimTime>(
+                         BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime))
+                         .seconds);
   }
   ConnectResult result;
   result.frames_sent = backend.IsSimulation() ? 2 : 0;  // GetSimInfo, GetSimTime
@@ -784,7 +838,7 @@ double RobotDriver::ElapsedTime() {
   Backend& backend = RequireBackendLocked("ElapsedTime");
   if (!backend.IsSimulation()) return SecondsSince(attached_at_);
   const snp::Message m = BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime);
-  sim_time_ = std::get<snp::SimTime>(m).seconds;
+  SetSimTimeLocked(std::get<snp::SimTime>(m).seconds);
   return sim_time_;
 }
 
@@ -792,21 +846,39 @@ RobotPose RobotDriver::RobotPosition() {
   Lock lock(mutex_);
   Backend& backend = RequireBackendLocked("RobotPosition");
   if (!backend.IsSimulation()) {
-    if (!options_.real_position) {
+    if (!options_.tracker) {
       throw Error(StatusCode::kUnimplemented,
                   "the position of a real robot needs the LED tracker: start yamord with "
                   "--led-tracker HOST:PORT --tracker-calibration FILE (docs/camapp.md)");
     }
-    RobotPose pose = options_.real_position(attached_at_);
-    pose.source = "led-tracker";
-    return pose;
+    const Clock::time_point epoch = attached_at_;
+    lock.unlock();
+    const TrackedPose tracked = options_.tracker->Latest();
+    return RobotPose{.time = std::chrono::duration<double>(tracked.arrival - epoch).count(),
+                     .position = tracked.position,
+                     .source = "led-tracker"};
   }
   CheckDivergedLocked();
-  const snp::Message m =
-      BridgeRequestLocked(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
-  const auto& p = std::get<snp::RobotPosition>(m);
-  return RobotPose{.time = p.time, .position = p.position, .orientation = p.orientation,
-                   .source = "simulation"};
+  if (!options_.position_from_tracker) return SimulatedPoseLocked();
+  // What the camera sees now: the first frame captured at or after the
+  // present, whose capture time cannot exceed the simulation's (a later one
+  // is from before a reset). Waited for without the robot's mutex: the
+  // camera reads the simulation through this driver.
+  const double now = std::get<snp::SimTime>(
+                         BridgeRequestLocked(snp::GetSimTime{}, snp::MessageType::kSimTime))
+                         .seconds;
+  SetSimTimeLocked(now);
+  lock.unlock();
+  const TrackedPose tracked =
+      options_.tracker->CapturedBetween(now, [this] { return sim_clock_.load(); });
+  return RobotPose{.time = tracked.camera_time, .position = tracked.position, .source = "led-tracker"};
+}
+
+RobotPose RobotDriver::SimulatedPosition() {
+  Lock lock(mutex_);
+  RequireSimulationLocked("SimulatedPosition");
+  CheckDivergedLocked();
+  return SimulatedPoseLocked();
 }
 
 std::vector<std::pair<int, double>> RobotDriver::GetServoAngles(const std::vector<int>& ids) {
@@ -1142,6 +1214,14 @@ WatchCursor RobotDriver::BeginWatch() {
   {
     Lock lock(mutex_);
     if (backend_ && backend_->IsSimulation() && !diverged_) RecordSampleLocked();
+  }
+  if (tracker_feed_.load() != kTrackerFeedNone) {
+    // The tracker's latest position, if fresh, so the first update is immediate.
+    try {
+      OnTrackedPose(options_.tracker->Latest());
+    } catch (const Error& e) {
+      Log().debug("driver: no tracked sample yet: {}", e.what());
+    }
   }
   return state_.NewCursor();
 }

@@ -25,6 +25,7 @@
 #include "cpg/robot_config.h"
 #include "host/backend.h"
 #include "host/id_map.h"
+#include "host/position_tracker.h"
 #include "host/snp_link.h"
 #include "host/state_log.h"
 #include "host/ticket_mutex.h"
@@ -43,11 +44,6 @@ using cpg::ModuleField;
 /// Returns true once the caller gave up (client cancelled, deadline passed).
 /// Long operations poll it between chunks and then throw CANCELLED.
 using CancelCheck = std::function<bool()>;
-
-/// The position of a real robot (the LED tracker): the central module's pose
-/// with its time in seconds since `epoch` (when the backend was attached).
-/// Throws yamor::Error (UNAVAILABLE for a stale or lost tracker).
-using RealPositionSource = std::function<RobotPose(std::chrono::steady_clock::time_point epoch)>;
 
 /// Fixed settings of a driver (from yamord's settings).
 struct DriverOptions {
@@ -69,9 +65,15 @@ struct DriverOptions {
   double sleep_chunk = 0.05;
   /// Longest Sleep [s].
   double max_sleep = 24.0 * 3600.0;
-  /// Where RobotPosition reads a real robot's position (yamord's LED
-  /// tracker); unset: UNIMPLEMENTED on a real robot.
-  RealPositionSource real_position;
+  /// Where RobotPosition and WatchState read a tracked position (yamord's LED
+  /// tracker): always on a real robot (unset: UNIMPLEMENTED there), and on a
+  /// simulation when `position_from_tracker`.
+  std::shared_ptr<PositionTracker> tracker;
+  /// On a simulation, RobotPosition and WatchState report what `tracker`
+  /// sees instead of the simulation's own position (yamord --position-source
+  /// tracker). The camera's clock must be the simulation's (yamor-camapp's
+  /// is): a position is the one captured at the simulation's present time.
+  bool position_from_tracker = false;
   /// Wraps every backend the driver installs (OpenSimulation, AttachBackend),
   /// e.g. in a RecordingBackend for `yamord --record`; `attributes` describe
   /// it (backend, world, and for a simulation seed, time_step, master,
@@ -277,10 +279,18 @@ class RobotDriver {
   /// Virtual time in simulation; wall-clock seconds since the backend was
   /// attached otherwise.
   double ElapsedTime();
-  /// Pose of the central module: the simulation's, or on a real robot the
-  /// LED tracker's (DriverOptions::real_position; UNIMPLEMENTED without one,
-  /// UNAVAILABLE when it is stale or lost: never a stale value).
+  /// Pose of the central module: the simulation's, or the LED tracker's
+  /// (DriverOptions::tracker) on a real robot and, with
+  /// `position_from_tracker`, on a simulation. On a real robot the latest
+  /// fresh position, time in seconds since the robot was attached or
+  /// connected; UNIMPLEMENTED without a tracker. On a simulation the first
+  /// position the camera captured at or after the present simulation time
+  /// (waiting for it), time the capture time. UNAVAILABLE naming the tracker
+  /// when it is stale, lost or does not see the LED: never a stale value.
   RobotPose RobotPosition();
+  /// The simulation's own pose of the central module, whatever the position
+  /// source (what yamor-camapp films); UNIMPLEMENTED on a real robot.
+  RobotPose SimulatedPosition();
   /// Servo angles of `ids` (all modules when empty), read over SNP.
   std::vector<std::pair<int, double>> GetServoAngles(const std::vector<int>& ids);
   /// The last `samples` (1..16; 0 = 1) accelerometer samples of a module.
@@ -381,6 +391,14 @@ class RobotDriver {
   void QueryDivergenceLocked();
   void StepLocked(double seconds);
   void RecordSampleLocked();
+  // The simulation's pose (bridge special); records the time in sim_clock_.
+  RobotPose SimulatedPoseLocked();
+  // Sets sim_time_ and sim_clock_.
+  void SetSimTimeLocked(double seconds);
+  // Publishes where tracked samples go for WatchState (tracker_feed_, tracker_epoch_).
+  void UpdateTrackerFeedLocked();
+  // The tracker's handler (tracker thread): a WatchState sample.
+  void OnTrackedPose(const TrackedPose& pose);
   int SendModuleConfigLocked(const cpg::ModuleParams& module, const PendingModule* only);
   int RefreshLocked();
   void MarkAllPendingLocked();
@@ -420,6 +438,17 @@ class RobotDriver {
   // Wakes real-time sleeps and the free-run thread on shutdown or change.
   std::condition_variable_any wake_;             // used with mutex_
   std::thread free_run_thread_;                  // guarded by mutex_ (started once)
+
+  // Read by the tracker's thread without mutex_: what WatchState samples come
+  // from the tracker (kTrackerFeed*), the real robot's time epoch, and the
+  // latest simulation time the driver knows (an upper bound on the capture
+  // time of any frame of the present simulation clock).
+  static constexpr int kTrackerFeedNone = 0;   // samples from the simulation, or none
+  static constexpr int kTrackerFeedReal = 1;   // real robot: time since tracker_epoch_
+  static constexpr int kTrackerFeedSim = 2;    // simulation: the camera's (= simulation) time
+  std::atomic<int> tracker_feed_{kTrackerFeedNone};
+  std::atomic<std::chrono::steady_clock::rep> tracker_epoch_{0};
+  std::atomic<double> sim_clock_{0.0};
 
   StateLog state_;  // WatchState's events and samples (own mutex)
 };

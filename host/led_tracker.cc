@@ -5,6 +5,7 @@
 #include <boost/asio.hpp>
 #include <charconv>
 #include <cmath>
+#include <condition_variable>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -92,8 +93,10 @@ CamAppSample ParseCamAppSample(std::string_view line, int width, int height) {
 // The tracker's state. Thread-safety: the Asio objects and the stream state are
 // used on the I/O thread only; the members marked below are guarded by mutex_.
 struct LedTracker::Impl {
-  Impl(CameraModel m, LedTrackerOptions o)
+  Impl(std::optional<CameraModel> m, int width, int height, LedTrackerOptions o)
       : model_(std::move(m)),
+        width_(width),
+        height_(height),
         options_(std::move(o)),
         name_("led-tracker " + options_.host + ":" + std::to_string(options_.port)),
         socket_(io_),
@@ -145,10 +148,10 @@ struct LedTracker::Impl {
         throw BadLine("bad hello (expected \"YAMOR-CAMAPP 1 <width> <height>\")", line);
       }
       const int w = ParseUnsigned<int>(f[2], "width", line), h = ParseUnsigned<int>(f[3], "height", line);
-      const auto& lens = model_.lens().params();
-      if (w != lens.width || h != lens.height) {
-        throw BadLine("image " + std::to_string(w) + "x" + std::to_string(h) + " but the calibration is for " +
-                          std::to_string(lens.width) + "x" + std::to_string(lens.height), line);
+      if (w != width_ || h != height_) {
+        throw BadLine("image " + std::to_string(w) + "x" + std::to_string(h) + " but the " +
+                          (model_ ? "calibration" : "tracker") + " is for " + std::to_string(width_) +
+                          "x" + std::to_string(height_), line);
       }
       hello_done_ = true;
       std::lock_guard lock(mutex_);
@@ -157,10 +160,21 @@ struct LedTracker::Impl {
       Log().info("{}: connected", name_);
       return;
     }
-    const auto& lens = model_.lens().params();
-    LedSample sample{ParseCamAppSample(line, lens.width, lens.height), Clock::now()};
-    std::lock_guard lock(mutex_);
-    latest_ = sample;
+    LedSample sample{ParseCamAppSample(line, width_, height_), Clock::now(), 0};
+    {
+      std::lock_guard lock(mutex_);
+      sample.connection = connections_;
+    }
+    {
+      // Before the sample becomes the latest: whoever waited for it finds it handled.
+      std::lock_guard lock(handler_mutex_);
+      if (handler_) handler_(sample);
+    }
+    {
+      std::lock_guard lock(mutex_);
+      latest_ = sample;
+    }
+    sample_cv_.notify_all();
   }
 
   void Fail(const std::string& why) {
@@ -180,7 +194,9 @@ struct LedTracker::Impl {
     });
   }
 
-  const CameraModel model_;
+  const std::optional<CameraModel> model_;
+  const int width_;
+  const int height_;
   const LedTrackerOptions options_;
   const std::string name_;
 
@@ -195,14 +211,33 @@ struct LedTracker::Impl {
   std::thread thread_;
 
   mutable std::mutex mutex_;
+  mutable std::condition_variable sample_cv_;  // notified on each sample, with mutex_
   std::optional<LedSample> latest_;   // guarded by mutex_
   bool connected_ = false;            // guarded by mutex_
   std::uint64_t connections_ = 0;     // guarded by mutex_
   std::string last_error_ = "not connected yet";  // guarded by mutex_
+
+  // Held while the handler runs, so replacing it waits for a call in flight.
+  std::mutex handler_mutex_;
+  std::function<void(const LedSample&)> handler_;  // guarded by handler_mutex_
 };
 
 LedTracker::LedTracker(CameraModel model, LedTrackerOptions options)
-    : impl_(std::make_unique<Impl>(std::move(model), std::move(options))) {
+    : LedTracker(std::optional<CameraModel>(std::move(model)), 0, 0, std::move(options)) {}
+
+LedTracker::LedTracker(int width, int height, LedTrackerOptions options)
+    : LedTracker(std::nullopt, width, height, std::move(options)) {}
+
+LedTracker::LedTracker(std::optional<CameraModel> model, int width, int height, LedTrackerOptions options) {
+  if (model) {
+    width = model->lens().params().width;
+    height = model->lens().params().height;
+  }
+  if (width <= 0 || height <= 0 || width > 1000000 || height > 1000000) {
+    throw Error(StatusCode::kInvalidArgument, "led tracker: image size " + std::to_string(width) + "x" +
+                                                  std::to_string(height) + " is not positive");
+  }
+  impl_ = std::make_unique<Impl>(std::move(model), width, height, std::move(options));
   if (impl_->options_.port <= 0 || impl_->options_.port > 65535) {
     throw Error(StatusCode::kInvalidArgument, "led tracker: port " + std::to_string(impl_->options_.port) +
                                                   " is outside 1..65535");
@@ -227,7 +262,31 @@ LedTracker::~LedTracker() {
 }
 
 const std::string& LedTracker::name() const noexcept { return impl_->name_; }
-const CameraModel& LedTracker::model() const noexcept { return impl_->model_; }
+bool LedTracker::has_model() const noexcept { return impl_->model_.has_value(); }
+
+const CameraModel& LedTracker::model() const {
+  if (!impl_->model_) {
+    throw Error(StatusCode::kFailedPrecondition, impl_->name_ + ": no camera calibration (raw pixels only)");
+  }
+  return *impl_->model_;
+}
+
+std::optional<LedSample> LedTracker::WaitForSample(const std::function<bool(const LedSample&)>& accept,
+                                                   std::chrono::duration<double> timeout) const {
+  std::unique_lock lock(impl_->mutex_);
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(timeout);
+  std::optional<LedSample> found;
+  impl_->sample_cv_.wait_until(lock, deadline, [&] {
+    if (impl_->latest_ && accept(*impl_->latest_)) found = impl_->latest_;
+    return found.has_value();
+  });
+  return found;
+}
+
+void LedTracker::SetSampleHandler(std::function<void(const LedSample&)> handler) {
+  std::lock_guard lock(impl_->handler_mutex_);
+  impl_->handler_ = std::move(handler);
+}
 
 std::optional<LedSample> LedTracker::LatestSample() const {
   std::lock_guard lock(impl_->mutex_);
@@ -264,21 +323,106 @@ TrackedPosition LedTracker::LatestPosition(std::chrono::duration<double> max_age
         << " s old, more than the " << max_age.count() << " s allowed (" << state << ")";
     throw Error(StatusCode::kUnavailable, msg.str());
   }
-  if (!latest->sample.seen) {
+  return Locate(*latest);
+}
+
+TrackedPosition LedTracker::Locate(const LedSample& sample) const {
+  const CameraModel& camera = model();
+  if (!sample.sample.seen) {
     throw Error(StatusCode::kUnavailable,
-                impl_->name_ + ": LED not seen in the last frame (seq " + std::to_string(latest->sample.seq) + ")");
+                impl_->name_ + ": LED not seen in the frame (seq " + std::to_string(sample.sample.seq) + ")");
   }
   TrackedPosition out;
   try {
-    out.ground = impl_->model_.PixelToGround(latest->sample.pixel);
+    out.ground = camera.PixelToGround(sample.sample.pixel);
   } catch (const Error& e) {
     throw Error(StatusCode::kUnavailable, impl_->name_ + ": " + e.what());
   }
-  out.pixel = latest->sample.pixel;
-  out.seq = latest->sample.seq;
-  out.camera_time_us = latest->sample.camera_time_us;
-  out.arrival = latest->arrival;
+  out.pixel = sample.sample.pixel;
+  out.seq = sample.sample.seq;
+  out.camera_time_us = sample.sample.camera_time_us;
+  out.arrival = sample.arrival;
   return out;
+}
+
+namespace {
+
+// PositionTracker over an LedTracker (yamord's --led-tracker).
+// Thread-safety: immutable; the tracker is thread-safe.
+class LedPositionTracker final : public PositionTracker {
+ public:
+  LedPositionTracker(std::shared_ptr<LedTracker> tracker, std::chrono::duration<double> max_age)
+      : tracker_(std::move(tracker)), max_age_(max_age), led_height_(tracker_->model().led_height()) {
+    if (!(max_age_.count() > 0)) {
+      throw Error(StatusCode::kInvalidArgument, "led tracker: max age must be > 0 s");
+    }
+  }
+
+  ~LedPositionTracker() override { tracker_->SetSampleHandler(nullptr); }
+  LedPositionTracker(const LedPositionTracker&) = delete;
+  LedPositionTracker& operator=(const LedPositionTracker&) = delete;
+
+  const std::string& name() const override { return tracker_->name(); }
+
+  TrackedPose Latest() const override { return Pose(tracker_->LatestPosition(max_age_)); }
+
+  TrackedPose CapturedBetween(double earliest, const std::function<double()>& latest) const override {
+    // Camera times are whole microseconds: compare with half a microsecond to spare.
+    auto wanted = [&](const LedSample& s) {
+      const double t = static_cast<double>(s.sample.camera_time_us);
+      return t >= earliest * 1e6 - 0.5 && t <= latest() * 1e6 + 0.5;
+    };
+    const auto found =
+        tracker_->WaitForSample([&](const LedSample& s) { return wanted(s) && s.sample.seen; }, max_age_);
+    if (found) return Pose(tracker_->Locate(*found));
+    // Say what the camera sent instead: nothing, only older frames, or frames without the LED.
+    const auto last = tracker_->LatestSample();
+    std::ostringstream msg;
+    msg.precision(6);
+    msg << tracker_->name() << ": no frame with the LED captured at or after camera time " << earliest
+        << " s within " << max_age_.count() << " s";
+    if (!last) {
+      msg << " (no sample received" << (tracker_->connected() ? ")" : "; not connected)");
+    } else if (wanted(*last)) {
+      msg << " (LED not seen since; last frame seq " << last->sample.seq << ")";
+    } else {
+      msg << " (last frame seq " << last->sample.seq << " captured at "
+          << static_cast<double>(last->sample.camera_time_us) * 1e-6
+          << " s; is the camera yamor-camapp filming this simulation?)";
+    }
+    throw Error(StatusCode::kUnavailable, msg.str());
+  }
+
+  void SetHandler(std::function<void(const TrackedPose&)> handler) override {
+    if (!handler) return tracker_->SetSampleHandler(nullptr);
+    tracker_->SetSampleHandler([this, handler = std::move(handler)](const LedSample& s) {
+      if (!s.sample.seen) return;
+      try {
+        handler(Pose(tracker_->Locate(s)));
+      } catch (const Error& e) {
+        Log().debug("{}: sample dropped: {}", tracker_->name(), e.what());
+      }
+    });
+  }
+
+ private:
+  TrackedPose Pose(const TrackedPosition& p) const {
+    return TrackedPose{.position = {p.ground.x(), p.ground.y(), led_height_},
+                       .camera_time = static_cast<double>(p.camera_time_us) * 1e-6,
+                       .arrival = p.arrival};
+  }
+
+  const std::shared_ptr<LedTracker> tracker_;
+  const std::chrono::duration<double> max_age_;
+  const double led_height_;
+};
+
+}  // namespace
+
+std::shared_ptr<PositionTracker> MakeLedPositionTracker(std::shared_ptr<LedTracker> tracker,
+                                                        std::chrono::duration<double> max_age) {
+  YAMOR_CHECK(tracker != nullptr, "MakeLedPositionTracker needs a tracker");
+  return std::make_shared<LedPositionTracker>(std::move(tracker), max_age);
 }
 
 }  // namespace yamor::host

@@ -205,17 +205,29 @@ grpc::Status HostServiceImpl::ElapsedTime(grpc::ServerContext* context, const Em
   return Serve(context, "ElapsedTime", [&] { response->set_seconds(driver_.ElapsedTime()); });
 }
 
+namespace {
+
+void SetPositionResponse(const RobotPose& pose, v1::RobotPositionResponse* response) {
+  v1::Pose p;
+  SetPose(pose, &p);
+  *response->mutable_position() = p.position();
+  *response->mutable_orientation() = p.orientation();
+  response->set_time(pose.time);
+  response->set_source(pose.source);
+}
+
+}  // namespace
+
 grpc::Status HostServiceImpl::RobotPosition(grpc::ServerContext* context, const Empty*,
                                             v1::RobotPositionResponse* response) {
-  return Serve(context, "RobotPosition", [&] {
-    const RobotPose pose = driver_.RobotPosition();
-    v1::Pose p;
-    SetPose(pose, &p);
-    *response->mutable_position() = p.position();
-    *response->mutable_orientation() = p.orientation();
-    response->set_time(pose.time);
-    response->set_source(pose.source);
-  });
+  return Serve(context, "RobotPosition",
+               [&] { SetPositionResponse(driver_.RobotPosition(), response); });
+}
+
+grpc::Status HostServiceImpl::SimulatedPosition(grpc::ServerContext* context, const Empty*,
+                                                v1::RobotPositionResponse* response) {
+  return Serve(context, "SimulatedPosition",
+               [&] { SetPositionResponse(driver_.SimulatedPosition(), response); });
 }
 
 grpc::Status HostServiceImpl::SimulationModeEnabled(grpc::ServerContext* context, const Empty*,

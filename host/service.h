@@ -63,6 +63,9 @@ class HostServiceImpl final : public yamor::v1::Host::Service {
   /// The RobotPosition RPC.
   grpc::Status RobotPosition(grpc::ServerContext* context, const google::protobuf::Empty* request,
                              yamor::v1::RobotPositionResponse* response) override;
+  /// The SimulatedPosition RPC.
+  grpc::Status SimulatedPosition(grpc::ServerContext* context, const google::protobuf::Empty* request,
+                                 yamor::v1::RobotPositionResponse* response) override;
   /// The SimulationModeEnabled RPC.
   grpc::Status SimulationModeEnabled(grpc::ServerContext* context,
                                      const google::protobuf::Empty* request,

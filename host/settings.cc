@@ -119,6 +119,8 @@ Settings ParseSettingsToml(std::string_view text, std::string_view source) {
       s.tracker_calibration = GetString(source, node, key);
     } else if (key == "tracker_max_age") {
       s.tracker_max_age = GetNumber(source, node, key);
+    } else if (key == "position_source") {
+      s.position_source = GetString(source, node, key);
     } else if (key == "log_level") {
       s.log_level = GetString(source, node, key);
     } else if (key == "max_concurrent_calls") {
@@ -189,6 +191,14 @@ void ValidateSettings(const Settings& s) {
     throw Error(StatusCode::kOutOfRange, "tracker_max_age " + FormatDouble(s.tracker_max_age) +
                                              " s is outside (0, 60]");
   }
+  if (s.position_source != "auto" && s.position_source != "tracker") {
+    throw Error(StatusCode::kInvalidArgument,
+                "position_source \"" + s.position_source + "\" is neither auto nor tracker");
+  }
+  if (s.position_source == "tracker" && s.led_tracker.empty()) {
+    throw Error(StatusCode::kInvalidArgument,
+                "position_source tracker needs led_tracker HOST:PORT (--led-tracker)");
+  }
   if (s.link_retries < 0 || s.link_retries > 10) {
     throw Error(StatusCode::kOutOfRange,
                 "link_retries " + std::to_string(s.link_retries) + " is outside 0..10");
@@ -245,6 +255,7 @@ std::string SettingsToToml(const Settings& s) {
   out << "led_tracker = " << Quote(s.led_tracker) << "\n";
   out << "tracker_calibration = " << Quote(s.tracker_calibration) << "\n";
   out << "tracker_max_age = " << toml::value<double>(s.tracker_max_age) << "\n";
+  out << "position_source = " << Quote(s.position_source) << "  # auto or tracker\n";
   out << "log_level = " << Quote(s.log_level) << "\n";
   out << "max_concurrent_calls = " << s.max_concurrent_calls << "\n";
   out << "link_timeout = " << toml::value<double>(s.link_timeout) << "\n";

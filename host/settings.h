@@ -32,6 +32,9 @@ struct Settings {
   std::string led_tracker;   ///< LED tracker (CamApp) HOST:PORT; "" = none (docs/camapp.md).
   std::string tracker_calibration;  ///< Camera calibration file of the LED tracker.
   double tracker_max_age = 0.5;     ///< Oldest tracker sample RobotPosition accepts [s].
+  /// Where RobotPosition comes from: "auto" (the simulation's own position,
+  /// the tracker on a real robot) or "tracker" (the tracker on a simulation too).
+  std::string position_source = "auto";
   std::string log_level = "info";      ///< trace, debug, info, warn, error, critical, off.
   unsigned max_concurrent_calls = 64;  ///< Calls served at once; more get RESOURCE_EXHAUSTED.
   double link_timeout = 2.0;           ///< ConnectRobot per-link timeout [s].

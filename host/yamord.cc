@@ -43,7 +43,6 @@ namespace {
 
 using namespace yamor;
 using namespace yamor::host;
-using Clock = std::chrono::steady_clock;
 
 int Run(int argc, char** argv, const sigset_t& signals) {
   CLI::App app{"yamord: the YaMoR host daemon (gRPC API yamor.v1.Host)", "yamord"};
@@ -90,6 +89,10 @@ int Run(int argc, char** argv, const sigset_t& signals) {
                                      "Camera calibration file of the LED tracker");
   auto* max_age = app.add_option("--tracker-max-age", flags.tracker_max_age,
                                  "Oldest tracker sample RobotPosition accepts [s]");
+  auto* position_source = app.add_option(
+      "--position-source", flags.position_source,
+      "RobotPosition from: auto (the simulation's own, the tracker on a real robot) or tracker "
+      "(the LED tracker on a simulation too: what the camera would see)");
   auto* level = app.add_option("--log-level", flags.log_level,
                                "trace, debug, info, warn, error, critical, off");
   auto* calls = app.add_option("--max-concurrent-calls", flags.max_concurrent_calls,
@@ -131,6 +134,7 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   if (led->count()) settings.led_tracker = flags.led_tracker;
   if (calibration->count()) settings.tracker_calibration = flags.tracker_calibration;
   if (max_age->count()) settings.tracker_max_age = flags.tracker_max_age;
+  if (position_source->count()) settings.position_source = flags.position_source;
   if (level->count()) settings.log_level = flags.log_level;
   if (calls->count()) settings.max_concurrent_calls = flags.max_concurrent_calls;
   if (link_timeout->count()) settings.link_timeout = flags.link_timeout;
@@ -184,17 +188,13 @@ int Run(int argc, char** argv, const sigset_t& signals) {
     tracker_options.port = port;
     tracker = std::make_shared<LedTracker>(LoadCameraModel(settings.tracker_calibration),
                                            tracker_options);
-    const double led_height = tracker->model().led_height();
-    const auto max_age = std::chrono::duration<double>(settings.tracker_max_age);
-    driver_options.real_position = [tracker, led_height, max_age](Clock::time_point epoch) {
-      const TrackedPosition tracked = tracker->LatestPosition(max_age);
-      return RobotPose{
-          .time = std::chrono::duration<double>(tracked.arrival - epoch).count(),
-          .position = {tracked.ground.x(), tracked.ground.y(), led_height},
-          .source = "led-tracker"};
-    };
-    Log().info("LED tracker {} with calibration {}", tracker->name(),
-               settings.tracker_calibration);
+    driver_options.tracker = MakeLedPositionTracker(
+        tracker, std::chrono::duration<double>(settings.tracker_max_age));
+    driver_options.position_from_tracker = settings.position_source == "tracker";
+    Log().info("LED tracker {} with calibration {}{}", tracker->name(),
+               settings.tracker_calibration,
+               driver_options.position_from_tracker ? " (the position source on a simulation too)"
+                                                    : "");
   }
   if (!settings.record.empty()) {
     // One file for the daemon's life; each backend the driver opens (the

@@ -6,7 +6,11 @@
 //    a yamor::Error of a caller code (INVALID_ARGUMENT / OUT_OF_RANGE) whose
 //    message names the file ("fuzz");
 //  - an accepted model maps the image centre to a finite ground position, or
-//    refuses it with OUT_OF_RANGE; never a NaN passed off as a position.
+//    refuses it with OUT_OF_RANGE; never a NaN passed off as a position;
+//  - an accepted calibration written by FormatCameraCalibration (yamorctl
+//    calibrate --output) reads back to the same numbers;
+//  - ParseReferencePoints (yamorctl calibrate's points file) rejects only
+//    with INVALID_ARGUMENT naming the file, and accepts only finite points.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -39,10 +43,27 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     } catch (const yamor::Error& e) {
       FUZZ_ASSERT(e.code() == yamor::StatusCode::kOutOfRange);
     }
+    const yamor::host::CameraCalibration back =
+        yamor::host::ParseCameraCalibration(yamor::host::FormatCameraCalibration(calibration, "fuzz"), "back");
+    FUZZ_ASSERT(back.points.size() == calibration.points.size());
+    FUZZ_ASSERT(back.lens.k1 == calibration.lens.k1 && back.lens.fx == calibration.lens.fx);
+    FUZZ_ASSERT(back.led_height == calibration.led_height);
+    for (std::size_t i = 0; i < back.points.size(); ++i) {
+      FUZZ_ASSERT(back.points[i].pixel == calibration.points[i].pixel);
+      FUZZ_ASSERT(back.points[i].ground == calibration.points[i].ground);
+    }
   } catch (const yamor::Error& e) {
     FUZZ_ASSERT(e.code() == yamor::StatusCode::kInvalidArgument ||
                 e.code() == yamor::StatusCode::kOutOfRange);
     FUZZ_ASSERT(std::string(e.what()).find("fuzz") != std::string::npos);
+  }
+  try {
+    for (const auto& point : yamor::host::ParseReferencePoints(text, "fuzz")) {
+      FUZZ_ASSERT(point.pixel.allFinite() && point.ground.allFinite() && point.line > 0);
+    }
+  } catch (const yamor::Error& e) {
+    FUZZ_ASSERT(e.code() == yamor::StatusCode::kInvalidArgument);
+    FUZZ_ASSERT(std::string(e.what()).find("fuzz:") == 0);
   }
   return 0;
 }

@@ -409,5 +409,44 @@ TEST(CameraModelTest, PixelOutsideTheImageIsOutOfRange) {
   }
 }
 
+TEST(CalibrationFileTest, FormattedCalibrationReadsBackExactly) {
+  const SyntheticCamera cam;
+  const LensModel lens(cam.lens);
+  CameraCalibration cal = SyntheticCalibration(cam, lens);
+  cal.led_height = 0.0625;
+  const std::string text = FormatCameraCalibration(cal, "two\ncomment lines");
+  EXPECT_EQ(text.rfind("# two\n# comment lines\nimage ", 0), 0u) << text;
+  const CameraCalibration back = ParseCameraCalibration(text, "formatted");
+  EXPECT_EQ(back.lens.k1, cal.lens.k1);
+  EXPECT_EQ(back.lens.p2, cal.lens.p2);
+  EXPECT_EQ(back.led_height, 0.0625);
+  ASSERT_EQ(back.points.size(), cal.points.size());
+  for (size_t i = 0; i < cal.points.size(); ++i) {
+    EXPECT_EQ(back.points[i].pixel, cal.points[i].pixel) << "bit for bit";
+    EXPECT_EQ(back.points[i].ground, cal.points[i].ground);
+  }
+}
+
+TEST(CalibrationFileTest, ReferencePointsFileNamesTheBadLine) {
+  const auto points = ParseReferencePoints("# x y X Y\n10 20 -1 0.5\n\npoint 30.5 40 1 -0.5  # a comment\n",
+                                           "points.txt");
+  ASSERT_EQ(points.size(), 2u);
+  EXPECT_EQ(points[0].pixel, Eigen::Vector2d(10, 20));
+  EXPECT_EQ(points[1].ground, Eigen::Vector2d(1, -0.5));
+  EXPECT_EQ(points[1].line, 4);
+  for (const auto& [text, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"1 2 3\n", "points.txt:1: expected a reference point"},
+           {"1 2 3 4\n1 2 nan 4\n", "points.txt:2: X must be a finite number, got \"nan\""},
+           {"image 640 480\n", "points.txt:1: expected a reference point"}}) {
+    try {
+      ParseReferencePoints(text, "points.txt");
+      ADD_FAILURE() << "no error for " << text;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), StatusCode::kInvalidArgument);
+      EXPECT_THAT(e.what(), HasSubstr(expected));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace yamor::host

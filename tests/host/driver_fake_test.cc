@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <mutex>
 #include <stdexcept>
 #include <thread>
 
@@ -27,6 +28,7 @@ class DriverFakeTest : public ::testing::Test {
  protected:
   FakeBackend* Attach(bool simulation, DriverOptions options = {},
                       cpg::RobotConfig config = SmallConfig()) {
+    driver_.reset();  // a tracker takes one driver's handler at a time
     driver_ = std::make_unique<RobotDriver>(std::move(options), std::move(config));
     auto fake = std::make_unique<FakeBackend>(simulation);
     FakeBackend* raw = fake.get();
@@ -286,28 +288,147 @@ TEST_F(DriverFakeTest, FreeRunSurvivesAnyExceptionStopsAndSaysWhy) {
   }
 }
 
+// A PositionTracker stand-in: a fixed position, "lost" on demand; records
+// the window each CapturedBetween asked for; Emit plays a sample arriving.
+class FakeTracker final : public PositionTracker {
+ public:
+  const std::string& name() const override { return name_; }
+  TrackedPose Latest() const override {
+    if (lost) throw Error(StatusCode::kUnavailable, name_ + ": sample 9 is 2 s old");
+    return pose;
+  }
+  TrackedPose CapturedBetween(double earliest, const std::function<double()>& latest) const override {
+    asked_earliest = earliest;
+    asked_latest = latest();
+    if (lost) throw Error(StatusCode::kUnavailable, name_ + ": no frame with the LED");
+    TrackedPose p = pose;
+    p.camera_time = earliest;
+    return p;
+  }
+  void SetHandler(std::function<void(const TrackedPose&)> handler) override {
+    std::lock_guard lock(mutex_);
+    handler_ = std::move(handler);
+  }
+  // Calls the handler as the tracker's thread would; false when none is set.
+  bool Emit(const TrackedPose& p) {
+    std::lock_guard lock(mutex_);
+    if (!handler_) return false;
+    handler_(p);
+    return true;
+  }
+
+  TrackedPose pose{.position = {0.25, -0.5, 0.06}, .camera_time = 3.0,
+                   .arrival = std::chrono::steady_clock::now()};
+  bool lost = false;
+  mutable double asked_earliest = -1;
+  mutable double asked_latest = -1;
+
+ private:
+  const std::string name_ = "led-tracker 127.0.0.1:2225";
+  std::mutex mutex_;
+  std::function<void(const TrackedPose&)> handler_;
+};
+
 TEST_F(DriverFakeTest, ARealRobotsPositionComesFromTheTrackerNeverStale) {
   std::string message;
   Attach(/*simulation=*/false);
   EXPECT_EQ(CodeOf([&] { driver_->RobotPosition(); }, &message), StatusCode::kUnimplemented);
   EXPECT_NE(message.find("--led-tracker"), std::string::npos) << message;
 
-  bool lost = false;
+  auto tracker = std::make_shared<FakeTracker>();
   DriverOptions options;
-  options.real_position = [&lost](std::chrono::steady_clock::time_point epoch) {
-    if (lost) throw Error(StatusCode::kUnavailable, "led-tracker 127.0.0.1:2225: sample 9 is 2 s old");
-    const double since = std::chrono::duration<double>(std::chrono::steady_clock::now() - epoch).count();
-    return RobotPose{.time = since, .position = {0.25, -0.5, 0.06}};
-  };
+  options.tracker = tracker;
   Attach(/*simulation=*/false, options);
+  tracker->pose.arrival = std::chrono::steady_clock::now();
   const RobotPose pose = driver_->RobotPosition();
   EXPECT_EQ(pose.source, "led-tracker");
   EXPECT_EQ(pose.position, (std::array<double, 3>{0.25, -0.5, 0.06}));
   EXPECT_GE(pose.time, 0.0) << "in seconds since the backend was attached";
   EXPECT_LT(pose.time, 60.0);
-  lost = true;
+  EXPECT_EQ(CodeOf([&] { driver_->SimulatedPosition(); }), StatusCode::kUnimplemented);
+  tracker->lost = true;
   EXPECT_EQ(CodeOf([&] { driver_->RobotPosition(); }, &message), StatusCode::kUnavailable);
   EXPECT_NE(message.find("led-tracker"), std::string::npos) << message;
+}
+
+TEST_F(DriverFakeTest, ASimulationsPositionComesFromTheTrackerWhenItIsTheSource) {
+  auto tracker = std::make_shared<FakeTracker>();
+  DriverOptions options;
+  options.tracker = tracker;
+  options.position_from_tracker = true;
+  FakeBackend* fake = Attach(/*simulation=*/true, options);
+  fake->time = 2.5;
+  const RobotPose pose = driver_->RobotPosition();
+  EXPECT_EQ(pose.source, "led-tracker");
+  EXPECT_EQ(pose.position, (std::array<double, 3>{0.25, -0.5, 0.06}));
+  EXPECT_DOUBLE_EQ(tracker->asked_earliest, 2.5) << "a frame captured at the present simulation time";
+  EXPECT_DOUBLE_EQ(tracker->asked_latest, 2.5) << "and none from after it (before a reset)";
+  EXPECT_DOUBLE_EQ(pose.time, 2.5) << "the capture time, on the simulation's clock";
+
+  const RobotPose truth = driver_->SimulatedPosition();
+  EXPECT_EQ(truth.source, "simulation");
+  EXPECT_DOUBLE_EQ(truth.position[0], 0.025) << "the fake bridge's own position";
+
+  tracker->lost = true;
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { driver_->RobotPosition(); }, &message), StatusCode::kUnavailable);
+  EXPECT_NE(message.find("led-tracker"), std::string::npos) << message;
+
+  // Without the option the simulation's own position is reported.
+  options.position_from_tracker = false;
+  Attach(/*simulation=*/true, options);
+  EXPECT_EQ(driver_->RobotPosition().source, "simulation");
+}
+
+TEST_F(DriverFakeTest, TheTrackerAsSourceNeedsATracker) {
+  DriverOptions options;
+  options.position_from_tracker = true;
+  EXPECT_EQ(CodeOf([&] { RobotDriver(options, SmallConfig()); }), StatusCode::kInvalidArgument);
+}
+
+TEST_F(DriverFakeTest, WatchStateVelocityComesFromTrackedPositions) {
+  auto tracker = std::make_shared<FakeTracker>();
+  DriverOptions options;
+  options.tracker = tracker;
+  options.position_from_tracker = true;
+  Attach(/*simulation=*/true, options);
+  WatchCursor cursor = driver_->BeginWatch();
+  driver_->Sleep(1.0, false, nullptr);  // the simulation clock reaches 1 s
+  auto sample = [](double t, double x) {
+    return TrackedPose{.position = {x, 0.0, 0.06}, .camera_time = t,
+                       .arrival = std::chrono::steady_clock::now()};
+  };
+  ASSERT_TRUE(tracker->Emit(sample(0.5, 0.10)));
+  std::optional<StateUpdate> first = driver_->WaitForState(cursor, 0.1, std::chrono::milliseconds(0));
+  while (first && first->pose.source != "led-tracker") {
+    first = driver_->WaitForState(cursor, 0.1, std::chrono::milliseconds(0));
+  }
+  ASSERT_TRUE(first.has_value());
+  EXPECT_DOUBLE_EQ(first->pose.time, 0.5);
+  ASSERT_TRUE(tracker->Emit(sample(1.0, 0.15)));
+  std::optional<StateUpdate> next = driver_->WaitForState(cursor, 0.1, std::chrono::milliseconds(0));
+  ASSERT_TRUE(next.has_value());
+  EXPECT_EQ(next->pose.source, "led-tracker");
+  EXPECT_NEAR(next->velocity[0], 0.1, 1e-12) << "(0.15 - 0.10) m / 0.5 s";
+  // A frame from after the simulation's present is from before a reset: dropped.
+  ASSERT_TRUE(tracker->Emit(sample(7.0, 5.0)));
+  EXPECT_FALSE(driver_->WaitForState(cursor, 0.1, std::chrono::milliseconds(0)).has_value());
+  driver_->EndWatch();
+
+  // A real robot: time since the robot was attached, from the host's clock.
+  Attach(/*simulation=*/false, options);
+  cursor = driver_->BeginWatch();
+  ASSERT_TRUE(tracker->Emit(sample(123.0, 0.2)));
+  std::optional<StateUpdate> real = driver_->WaitForState(cursor, 0.1, std::chrono::milliseconds(0));
+  while (real && real->pose.source != "led-tracker") {
+    real = driver_->WaitForState(cursor, 0.1, std::chrono::milliseconds(0));
+  }
+  ASSERT_TRUE(real.has_value());
+  EXPECT_GE(real->pose.time, 0.0);
+  EXPECT_LT(real->pose.time, 60.0);
+  driver_->EndWatch();
+  driver_.reset();
+  EXPECT_FALSE(tracker->Emit(sample(1.0, 0.0))) << "the driver removed its handler";
 }
 
 TEST_F(DriverFakeTest, ConnectRobotRefusesATreeNotRootedAtTheMasterSetting) {

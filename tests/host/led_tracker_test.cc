@@ -9,12 +9,16 @@
 #include <utility>  // before Asio: its awaitable.hpp uses std::exchange
 
 #include <boost/asio.hpp>
+#include <atomic>
 #include <cstdio>
+#include <mutex>
+#include <vector>
 #include <functional>
 #include <thread>
 
 #include "common/format.h"
 #include "common/status.h"
+#include "tests/support/code_of.h"
 
 namespace yamor::host {
 namespace {
@@ -22,6 +26,7 @@ namespace {
 namespace asio = boost::asio;
 using asio::ip::tcp;
 using ::testing::HasSubstr;
+using ::yamor::testing::CodeOf;
 using namespace std::chrono_literals;
 
 constexpr double kDepth = 2.64;  // camera 2.7 m above the ground, LED at 6 cm
@@ -48,6 +53,7 @@ Eigen::Vector2d RawPixel(const LensModel& lens, const Eigen::Vector2d& g) {
 CameraModel Model() {
   CameraCalibration cal;
   cal.lens = Lens();
+  cal.led_height = 0.06;
   const LensModel lens(cal.lens);
   for (double x = -1.2; x <= 1.2; x += 0.4)
     for (double y = -0.8; y <= 0.8; y += 0.4) cal.points.push_back({RawPixel(lens, {x, y}), {x, y}, 0});
@@ -221,6 +227,96 @@ TEST(LedTrackerTest, ProtocolErrorsDropTheConnection) {
   second.Send("YAMOR-CAMAPP 1 640 480\n1 1 700 10\n");  // outside the image
   ASSERT_TRUE(WaitFor([&] { return tracker.connections() == 1u && !tracker.connected(); }));
   EXPECT_FALSE(tracker.LatestSample().has_value());
+}
+
+TEST(LedTrackerTest, RawOnlyTrackerHandsEverySampleToItsHandler) {
+  FakeCamApp server;
+  LedTracker tracker(640, 480, Options(server.port()));
+  EXPECT_FALSE(tracker.has_model());
+  std::mutex mutex;
+  std::vector<LedSample> received;
+  tracker.SetSampleHandler([&](const LedSample& s) {
+    std::lock_guard lock(mutex);
+    received.push_back(s);
+  });
+  server.Accept();
+  server.Send("YAMOR-CAMAPP 1 640 480\n1 40000 12 34\n2 80000 - -\n3 120000 600.25 470\n");
+  ASSERT_TRUE(WaitForSeq(tracker, 3));
+  tracker.SetSampleHandler(nullptr);
+  std::lock_guard lock(mutex);
+  ASSERT_EQ(received.size(), 3u) << "every sample, not only the latest";
+  EXPECT_EQ(received[0].sample.pixel, Eigen::Vector2d(12, 34));
+  EXPECT_FALSE(received[1].sample.seen);
+  EXPECT_EQ(received[2].sample.camera_time_us, 120000u);
+  EXPECT_EQ(received[2].connection, 1u);
+  EXPECT_EQ(CodeOf([&] { tracker.LatestPosition(5s); }), StatusCode::kFailedPrecondition)
+      << "no calibration: no metres";
+  EXPECT_EQ(CodeOf([&] { LedTracker(0, 480, Options(server.port())); }), StatusCode::kInvalidArgument);
+}
+
+TEST(LedTrackerTest, WaitForSampleWaitsForAnAcceptableOne) {
+  FakeCamApp server;
+  LedTracker tracker(Model(), Options(server.port()));
+  auto after = [](std::uint64_t us) {
+    return [us](const LedSample& s) { return s.sample.camera_time_us >= us; };
+  };
+  EXPECT_FALSE(tracker.WaitForSample(after(0), 50ms).has_value()) << "nothing received";
+  server.Accept();
+  server.Send("YAMOR-CAMAPP 1 640 480\n1 1000 320 240\n");
+  ASSERT_TRUE(WaitForSeq(tracker, 1));
+  EXPECT_EQ(tracker.WaitForSample(after(1000), 0s)->sample.seq, 1u) << "the latest already qualifies";
+  std::thread late([&] {
+    std::this_thread::sleep_for(50ms);
+    server.Send("2 2000 321 241\n");
+  });
+  const auto found = tracker.WaitForSample(after(2000), 5s);
+  late.join();
+  ASSERT_TRUE(found.has_value());
+  EXPECT_EQ(found->sample.seq, 2u);
+}
+
+TEST(LedTrackerTest, PositionTrackerReportsTheFrameCapturedInTheWindow) {
+  FakeCamApp server;
+  auto tracker = std::make_shared<LedTracker>(Model(), Options(server.port()));
+  const auto positions = MakeLedPositionTracker(tracker, 300ms);
+  EXPECT_EQ(positions->name(), tracker->name());
+  std::atomic<int> handled{0};
+  positions->SetHandler([&](const TrackedPose&) { ++handled; });
+  server.Accept();
+  const LensModel lens(Lens());
+  const Eigen::Vector2d raw = RawPixel(lens, {0.4, -0.2});
+  // Frames at 1 s (LED seen), 2 s (not seen) and, after a reset, 0.5 s.
+  server.Send("YAMOR-CAMAPP 1 640 480\n1 1000000 " + Fixed(raw.x()) + " " + Fixed(raw.y()) + "\n");
+  ASSERT_TRUE(WaitForSeq(*tracker, 1));
+  const TrackedPose pose = positions->CapturedBetween(1.0, [] { return 1.0; });
+  EXPECT_NEAR(pose.position[0], 0.4, 1e-6);
+  EXPECT_NEAR(pose.position[1], -0.2, 1e-6);
+  EXPECT_DOUBLE_EQ(pose.position[2], 0.06) << "the calibration's LED height";
+  EXPECT_DOUBLE_EQ(pose.camera_time, 1.0);
+  EXPECT_EQ(handled.load(), 1);
+
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { positions->CapturedBetween(1.5, [] { return 5.0; }); }, &message),
+            StatusCode::kUnavailable);
+  EXPECT_THAT(message, HasSubstr("captured at 1 s")) << "only an older frame came";
+  server.Send("2 2000000 - -\n");
+  ASSERT_TRUE(WaitForSeq(*tracker, 2));
+  EXPECT_EQ(CodeOf([&] { positions->CapturedBetween(1.5, [] { return 5.0; }); }, &message),
+            StatusCode::kUnavailable);
+  EXPECT_THAT(message, HasSubstr("LED not seen since"));
+  EXPECT_EQ(CodeOf([&] { positions->CapturedBetween(0.0, [] { return 0.5; }); }, &message),
+            StatusCode::kUnavailable)
+      << "a frame captured after the simulation's present is from before its reset";
+  std::thread late([&] {
+    std::this_thread::sleep_for(30ms);
+    server.Send("3 2000000 " + Fixed(raw.x()) + " " + Fixed(raw.y()) + "\n");
+  });
+  EXPECT_DOUBLE_EQ(positions->CapturedBetween(1.5, [] { return 5.0; }).camera_time, 2.0)
+      << "waits for the next frame that sees the LED";
+  late.join();
+  EXPECT_EQ(handled.load(), 2) << "seen frames only";
+  positions->SetHandler(nullptr);
+  EXPECT_NEAR(positions->Latest().position[0], 0.4, 1e-6);
 }
 
 }  // namespace

@@ -49,6 +49,7 @@ master = 0
 led_tracker = "camapp:5000"
 tracker_calibration = "/etc/yamor/camera.txt"
 tracker_max_age = 0.25
+position_source = "tracker"
 log_level = "debug"
 max_concurrent_calls = 8
 link_timeout = 0.5
@@ -85,6 +86,7 @@ record = "/var/log/yamor/session 1.rec"
   EXPECT_EQ(s.led_tracker, "camapp:5000");
   EXPECT_EQ(s.tracker_calibration, "/etc/yamor/camera.txt");
   EXPECT_DOUBLE_EQ(s.tracker_max_age, 0.25);
+  EXPECT_EQ(s.position_source, "tracker");
   EXPECT_EQ(s.log_level, "debug");
   EXPECT_EQ(s.max_concurrent_calls, 8u);
   EXPECT_DOUBLE_EQ(s.link_timeout, 0.5);
@@ -133,6 +135,8 @@ TEST(SettingsTest, MistakesNameTheFileAndLine) {
       {"link_timeout = 0\n", "link_timeout"},
       {"link_retries = 11\n", "link_retries"},
       {"tracker_max_age = 0\n", "tracker_max_age 0 s is outside (0, 60]"},
+      {"position_source = \"camera\"\n", "position_source \"camera\" is neither auto nor tracker"},
+      {"position_source = \"tracker\"\n", "position_source tracker needs led_tracker"},
       {"\nrecord = 5\n", "test.toml:2: record must be a string"},
       {"[id_map]\n1 = 5\n2 = 5\n", "both map to simulation id 5"},
   };

@@ -61,6 +61,7 @@ WRAPPER = {
     "SetFreeRun": "set_free_run",
     "RenderFrame": "snapshot",
     "RecordFrames": "frames",
+    "SimulatedPosition": "simulated_position",
 }
 
 
@@ -118,6 +119,8 @@ def test_thesis_session_moves_the_robot(host):
     assert host.elapsed_time() == pytest.approx(20.0, abs=0.01)
     end = host.position()
     assert end.time == pytest.approx(20.0, abs=0.01)
+    truth = host.simulated_position()  # the same pose without a tracker
+    assert truth.source == "simulation" and (truth.x, truth.y, truth.time) == (end.x, end.y, end.time)
     assert planar_distance(start, end) > 0.05, f"robot did not walk: {start} -> {end}"
     angles = host.servo_angles()
     assert set(angles) == set(opened.module_ids)

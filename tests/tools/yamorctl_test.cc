@@ -2,7 +2,9 @@
 // its RPC with the right request and a deadline, output (readable and JSON)
 // and exit codes follow the status. The real daemon is driven end to end by
 // tests/python/test_yamorctl.py.
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -12,14 +14,20 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gmock/gmock.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
+#include "common/format.h"
 #include "common/status.h"
 #include "physics/render/image.h"
+#include "host/camera_model.h"
+#include "tools/camapp/camapp_server.h"
+#include "tools/camapp/camera_emulator.h"
+#include "tools/yamorctl/tracking.h"
 #include "tools/yamorctl/yamorctl.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -109,6 +117,7 @@ class RecordingHost final : public v1::Host::Service {
   YAMOR_FAKE(Evaluate, v1::EvaluateRequest, v1::EvaluateResponse)
   YAMOR_FAKE(SetFreeRun, v1::SetFreeRunRequest, Empty)
   YAMOR_FAKE(RenderFrame, v1::RenderFrameRequest, v1::RenderFrameResponse)
+  YAMOR_FAKE(SimulatedPosition, Empty, v1::RobotPositionResponse)
 #undef YAMOR_FAKE
 
   grpc::Status RecordFrames(grpc::ServerContext* context, const v1::RecordFramesRequest* request,
@@ -238,6 +247,7 @@ TEST_F(YamorctlTest, EveryCommandSendsItsRequest) {
   const std::vector<CommandCase> cases = {
       {{"time"}, "ElapsedTime", ""},
       {{"position"}, "RobotPosition", ""},
+      {{"position", "--simulated"}, "SimulatedPosition", ""},
       {{"sim-enabled"}, "SimulationModeEnabled", ""},
       {{"couple", "2", "5", "1.5", "0.5"}, "AddCoupling",
        "from_id: 2 to_id: 5 phase: 1.5 weight: 0.5"},
@@ -559,6 +569,125 @@ TEST_F(YamorctlTest, HelpListsCommandsAndExitCodes) {
     EXPECT_THAT(r.out, HasSubstr(text));
   }
   EXPECT_EQ(Ctl({"get", "--help"}).exit_code, 0);
+}
+
+// ---- LED tracking: track (a camera application on loopback) and calibrate --------
+
+// The lines of a CSV file, header included.
+std::vector<std::string> Lines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+// Publishes `lines` once `server` has a client (the tracker of the command under test).
+std::thread PublishWhenConnected(camapp::CamAppServer& server, std::vector<std::string> lines) {
+  return std::thread([&server, lines = std::move(lines)] {
+    for (int i = 0; i < 1000 && server.clients() == 0; ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    for (const std::string& line : lines) server.Publish(line, std::chrono::steady_clock::now());
+  });
+}
+
+TEST_F(YamorctlTest, TrackRecordsRawAndCorrectedPositions) {
+  camapp::CameraOptions camera;
+  camera.noise = 0;
+  const camapp::CameraEmulator emulator(camera);
+  const std::string calibration = TempFile("camera.txt", emulator.CalibrationText(0.05));
+  const std::string csv = TempFile("track.csv", "");
+  Eigen::Vector2d pixel;
+  ASSERT_TRUE(emulator.ProjectExact({0.3, -0.2, 0.05}, &pixel));
+  camapp::CamAppServer server(camapp::CamAppServerOptions{.port = 0});
+  std::thread publisher = PublishWhenConnected(
+      server, {"7 40000 " + FormatDouble(std::round(pixel.x())) + " " + FormatDouble(std::round(pixel.y())),
+               "8 80000 - -", "9 120000 320 240"});
+  const Result r = Ctl({"track", "--camapp", "127.0.0.1:" + std::to_string(server.port()), "--calibration",
+                        calibration, "--record", csv, "--samples", "3", "--timeout", "20"});
+  publisher.join();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("recorded 3 samples (2 with the LED, 2 in metres)"));
+  const std::vector<std::string> lines = Lines(csv);
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[0], kTrackCsvHeader);
+  std::vector<std::string> fields;
+  std::stringstream row(lines[1]);
+  for (std::string f; std::getline(row, f, ',');) fields.push_back(f);
+  ASSERT_EQ(fields.size(), 9u) << lines[1];
+  EXPECT_EQ(fields[1], "7");
+  EXPECT_EQ(fields[2], "40000");
+  EXPECT_EQ(fields[3], "1");
+  EXPECT_NEAR(std::stod(fields[6]), 0.3, 0.004) << "metres, within a pixel's 3.3 mm";
+  EXPECT_NEAR(std::stod(fields[7]), -0.2, 0.004);
+  EXPECT_EQ(fields[8], "1") << "the first connection";
+  EXPECT_THAT(lines[2], HasSubstr(",8,80000,0,,,,,1"));
+}
+
+TEST_F(YamorctlTest, TrackPrintsRawPixelsWithoutACalibration) {
+  camapp::CamAppServer server(camapp::CamAppServerOptions{.port = 0});
+  std::thread publisher = PublishWhenConnected(server, {"1 40000 320 240", "2 80000 - -"});
+  Result r = Ctl({"track", "--camapp", "127.0.0.1:" + std::to_string(server.port()), "--samples", "2",
+                  "--timeout", "20"});
+  publisher.join();
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.out, "seq 1  camera 0.040000 s  pixel (320, 240)\nseq 2  camera 0.080000 s  LED not seen\n");
+  EXPECT_TRUE(fake_.calls().empty()) << "the daemon is not involved";
+
+  // Nobody listening: UNAVAILABLE after --timeout.
+  const int port = server.port();
+  r = Ctl({"track", "--camapp", "127.0.0.1:" + std::to_string(port == 65535 ? 1 : port + 1), "--timeout",
+           "0.3"});
+  EXPECT_EQ(r.exit_code, static_cast<int>(grpc::StatusCode::UNAVAILABLE)) << r.err;
+  EXPECT_THAT(r.err, HasSubstr("not connected after 0.3 s"));
+  EXPECT_EQ(Ctl({"track", "--camapp", "nowhere"}).exit_code, kUsageExitCode);
+  EXPECT_EQ(Ctl({"track", "--calibration", "/nonexistent/camera.txt"}).exit_code, kUsageExitCode);
+}
+
+TEST_F(YamorctlTest, CalibrateReportsEachPointsErrorAndWritesTheFile) {
+  camapp::CameraOptions camera;
+  camera.noise = 0;
+  const camapp::CameraEmulator emulator(camera);
+  const std::string lens = TempFile("lens.txt", emulator.CalibrationText(0.05));
+  // Reference points as a lab measures them: whole pixels where the LED was seen.
+  std::string points = "# x y X Y\n";
+  for (double x : {-0.8, 0.0, 0.8}) {
+    for (double y : {-0.6, 0.0, 0.6}) {
+      Eigen::Vector2d p;
+      ASSERT_TRUE(emulator.ProjectExact({x, y, 0.05}, &p));
+      points += FormatDouble(std::round(p.x())) + " " + FormatDouble(std::round(p.y())) + " " +
+                FormatDouble(x) + " " + FormatDouble(y) + "\n";
+    }
+  }
+  const std::string points_file = TempFile("points.txt", points);
+  const std::string output = TempFile("calibrated.txt", "");
+  Result r = Ctl({"calibrate", points_file, "--lens", lens, "--output", output});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("err [mm]"));
+  EXPECT_THAT(r.out, HasSubstr("9 reference points: reprojection error RMS "));
+  EXPECT_THAT(r.out, HasSubstr("calibration written to " + output));
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1 + 9 + 2) << r.out;
+  const host::CameraModel model = host::LoadCameraModel(output);
+  EXPECT_EQ(model.fit().residuals.size(), 9u);
+  EXPECT_LT(model.fit().max_error, 0.004) << "whole pixels: within a pixel's 3.3 mm";
+  EXPECT_GT(model.fit().max_error, 0.0);
+  EXPECT_DOUBLE_EQ(model.led_height(), 0.05) << "from the lens file";
+  EXPECT_EQ(model.lens().params().k1, camera.k1);
+
+  r = Ctl({"--json", "calibrate", output, "--led-height", "0.07"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_THAT(r.out, HasSubstr("\"rms_m\":"));
+  EXPECT_THAT(r.out, HasSubstr("\"led_height\":0.07"));
+  EXPECT_THAT(r.out, HasSubstr("{\"line\":"));
+
+  const std::string three = TempFile("three.txt", "1 1 0 0\n100 1 1 0\n100 100 1 1\n");
+  r = Ctl({"calibrate", three, "--lens", lens});
+  EXPECT_EQ(r.exit_code, static_cast<int>(StatusCode::kInvalidArgument));
+  EXPECT_THAT(r.err, HasSubstr(three + ":1,2,3: 3 reference points; at least 4"));
+  EXPECT_EQ(Ctl({"calibrate", "/nonexistent/points.txt"}).exit_code, kUsageExitCode);
+  EXPECT_EQ(Ctl({"calibrate", points_file}).exit_code, static_cast<int>(StatusCode::kInvalidArgument))
+      << "a points file needs --lens";
+  EXPECT_TRUE(fake_.calls().empty());
 }
 
 // ---- parsing helpers ---------------------------------------------------------------

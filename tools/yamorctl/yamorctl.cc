@@ -18,6 +18,7 @@
 #include "common/status.h"
 #include "physics/render/video.h"
 #include "tools/yamorctl/format.h"
+#include "tools/yamorctl/tracking.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::yamorctl {
@@ -300,9 +301,19 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
                      return fmt::format("{:.3f} s\n", r.seconds());
                    });
   });
-  simple("position", "Position of the central (tracked) module", [empty](Session& s) {
-    return s.Unary(&v1::Host::Stub::RobotPosition, empty, s.Timeout(), FormatPosition);
-  });
+  {
+    auto simulated = std::make_shared<bool>(false);
+    CLI::App* c = app.add_subcommand("position", "Position of the central (tracked) module");
+    c->add_flag("--simulated", *simulated,
+                "The simulation's own position, whatever the position source (SimulatedPosition)");
+    c->callback([&action, simulated, empty] {
+      action = [simulated, empty](Session& s) {
+        return s.Unary(*simulated ? &v1::Host::Stub::SimulatedPosition
+                                  : &v1::Host::Stub::RobotPosition,
+                       empty, s.Timeout(), FormatPosition);
+      };
+    });
+  }
   simple("sim-enabled", "Whether a simulation is open", [empty](Session& s) {
     return s.Unary(&v1::Host::Stub::SimulationModeEnabled, empty, s.Timeout(),
                    [](const v1::SimulationModeEnabledResponse& r) {
@@ -1045,6 +1056,64 @@ void AddRecord(CLI::App& app, Action& action) {
       return 0;
     };
   });
+// ---- LED tracking (local: the camera application and files, no daemon) -----------
+
+void AddTracking(CLI::App& app, Action& action, const GlobalOptions& global) {
+  {
+    auto a = std::make_shared<TrackOptions>();
+    auto image = std::make_shared<std::vector<int>>(std::vector<int>{a->width, a->height});
+    CLI::App* c = app.add_subcommand(
+        "track", "Read the LED tracker's camera (CamApp, yamor-camapp): raw and corrected "
+                 "positions, printed or --record FILE.csv (thesis C.2.5)");
+    c->add_option("--camapp", a->camapp, "Camera application HOST:PORT")->capture_default_str();
+    c->add_option("--calibration", a->calibration,
+                  "Calibration file: positions in metres too (without: raw pixels only)");
+    c->add_option("--image", *image, "Image width and height without a calibration [px]")
+        ->expected(2)
+        ->capture_default_str();
+    c->add_option("--record", a->record,
+                  "Write every sample as CSV (host_time, seq, camera_time_us, seen, pixel_x, "
+                  "pixel_y, x, y, connection)");
+    c->add_option("--seconds", a->seconds, "Stop after S seconds (0: until interrupted)")
+        ->check(CLI::NonNegativeNumber);
+    c->add_option("--samples", a->samples, "Stop after N samples (0: no limit)");
+    c->callback([&action, &global, a, image] {
+      action = [&global, a, image](Session& s) {
+        TrackOptions options = *a;
+        options.width = (*image)[0];
+        options.height = (*image)[1];
+        options.connect_timeout = global.timeout;  // not connected within --timeout: UNAVAILABLE
+        options.json = s.json();
+        return Track(options, s.out(), s.err());
+      };
+    });
+  }
+  {
+    struct Args {
+      CalibrateOptions options;
+      double led_height = 0.0;
+      CLI::Option* led_height_option = nullptr;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "calibrate", "Fit the camera's homography to pixel <-> metre reference points: the "
+                     "reprojection error of each, RMS and max; --output writes the calibration file");
+    c->add_option("POINTS_FILE", a->options.points,
+                  "A calibration file (docs/camapp.md), or with --lens lines \"x y X Y\" "
+                  "(raw pixel, metres)")
+        ->required();
+    c->add_option("--lens", a->options.lens, "Calibration file whose lens (and LED height) to use");
+    c->add_option("--output", a->options.output, "Write the calibration file here");
+    a->led_height_option = c->add_option("--led-height", a->led_height, "LED height to write [m]");
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        CalibrateOptions options = a->options;
+        if (a->led_height_option->count()) options.led_height = a->led_height;
+        options.json = s.json();
+        return Calibrate(options, s.out(), s.err());
+      };
+    });
+  }
 }
 
 }  // namespace
@@ -1113,6 +1182,7 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   AddWatch(app, action, global);
   AddSnapshot(app, action);
   AddRecord(app, action);
+  AddTracking(app, action, global);
   app.footer(kFooter);  // after the commands, which would inherit it
 
   try {

@@ -296,6 +296,13 @@ class Host:
         return Position(r.position.x, r.position.y, r.position.z, _quaternion(r.orientation),
                         r.time, r.source)
 
+    def simulated_position(self, timeout: Optional[float] = None) -> Position:
+        """The simulation's own position of the central module, whatever the
+        position source (SimulatedPosition; UNIMPLEMENTED on a real robot)."""
+        r = self._call("SimulatedPosition", self._EMPTY, timeout)
+        return Position(r.position.x, r.position.y, r.position.z, _quaternion(r.orientation),
+                        r.time, r.source)
+
     def simulation_mode_enabled(self, timeout: Optional[float] = None) -> bool:
         """Whether a simulation is open (SimulationModeEnabled)."""
         return self._call("SimulationModeEnabled", self._EMPTY, timeout).enabled

@@ -252,6 +252,11 @@ class HostStub(object):
                 request_serializer=yamor_dot_v1_dot_host__pb2.RecordFramesRequest.SerializeToString,
                 response_deserializer=yamor_dot_v1_dot_host__pb2.VideoFrame.FromString,
                 )
+        self.SimulatedPosition = channel.unary_unary(
+                '/yamor.v1.Host/SimulatedPosition',
+                request_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
+                response_deserializer=yamor_dot_v1_dot_host__pb2.RobotPositionResponse.FromString,
+                )
 
 
 class HostServicer(object):
@@ -267,7 +272,11 @@ class HostServicer(object):
         raise NotImplementedError('Method not implemented!')
 
     def RobotPosition(self, request, context):
-        """Position of the central (tracked) module: simulation, or LED tracker.
+        """Position of the central (tracked) module: the simulation's, or the LED
+        tracker's on a real robot and, with yamord --position-source tracker, on
+        a simulation (docs/camapp.md). UNAVAILABLE naming the tracker when it is
+        stale, lost or does not see the LED (never a stale value); UNIMPLEMENTED
+        on a real robot without a tracker.
         """
         context.set_code(grpc.StatusCode.UNIMPLEMENTED)
         context.set_details('Method not implemented!')
@@ -610,6 +619,16 @@ class HostServicer(object):
         context.set_details('Method not implemented!')
         raise NotImplementedError('Method not implemented!')
 
+    def SimulatedPosition(self, request, context):
+        """The simulation's own position of the central module whatever the
+        position source (source "simulation"): what the camera emulator
+        yamor-camapp films, and the truth a tracked position is compared with.
+        UNIMPLEMENTED on a real robot.
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
 
 def add_HostServicer_to_server(servicer, server):
     rpc_method_handlers = {
@@ -847,6 +866,11 @@ def add_HostServicer_to_server(servicer, server):
                     servicer.RecordFrames,
                     request_deserializer=yamor_dot_v1_dot_host__pb2.RecordFramesRequest.FromString,
                     response_serializer=yamor_dot_v1_dot_host__pb2.VideoFrame.SerializeToString,
+            ),
+            'SimulatedPosition': grpc.unary_unary_rpc_method_handler(
+                    servicer.SimulatedPosition,
+                    request_deserializer=google_dot_protobuf_dot_empty__pb2.Empty.FromString,
+                    response_serializer=yamor_dot_v1_dot_host__pb2.RobotPositionResponse.SerializeToString,
             ),
     }
     generic_handler = grpc.method_handlers_generic_handler(
@@ -1656,5 +1680,22 @@ class Host(object):
         return grpc.experimental.unary_stream(request, target, '/yamor.v1.Host/RecordFrames',
             yamor_dot_v1_dot_host__pb2.RecordFramesRequest.SerializeToString,
             yamor_dot_v1_dot_host__pb2.VideoFrame.FromString,
+            options, channel_credentials,
+            insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
+
+    @staticmethod
+    def SimulatedPosition(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/SimulatedPosition',
+            google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
+            yamor_dot_v1_dot_host__pb2.RobotPositionResponse.FromString,
             options, channel_credentials,
             insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
