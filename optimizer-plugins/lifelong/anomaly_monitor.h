@@ -1,0 +1,112 @@
+// Anomaly detection of lifelong learning (thesis 7.3): the gait's velocity,
+// measured over three CPG periods per window, is smoothed with the EMA rule
+//
+//   |v − v⁺| < t  ⇒  v := 0.9·v + 0.1·v⁺,   otherwise an anomaly,
+//
+// where v is the stored velocity, v⁺ the window just measured and t the
+// threshold. Physical changes the robot is told about (a module connected or
+// disconnected, a defect) are anomalies at once, without waiting for the
+// velocity to show them.
+#pragma once
+
+#include <set>
+#include <string>
+
+namespace yamor::lifelong {
+
+/// How the monitor judges a window.
+struct AnomalyOptions {
+  /// The threshold t. Relative (a fraction of the stored velocity |v|) by
+  /// default; in m/s when `relative` is false.
+  double threshold = 0.3;
+  /// t = threshold·max(|v|, min_reference) instead of t = threshold.
+  bool relative = true;
+  /// [m/s] Floor of the reference of a relative threshold, so a robot that
+  /// barely moves does not alarm on noise.
+  double min_reference = 0.005;
+  /// The EMA weight of the stored velocity (the thesis's 0.9).
+  double smoothing = 0.9;
+  /// A window faster than v + t is an anomaly too (by default it is only
+  /// reported, and v takes the new value: the robot got better).
+  bool increase_is_anomaly = false;
+  /// Consecutive out-of-band windows needed before a change is reported
+  /// (1: the thesis's rule, every such window). While fewer were seen the
+  /// verdict is kSuspect and v is not updated.
+  int confirmations = 1;
+  /// WatchState event kinds that are physical changes (anomalies at once).
+  std::set<std::string> physical_events = {"module_connected", "module_disconnected",
+                                           "defect_set", "defect_cleared"};
+};
+
+/// Checks `options` and throws yamor::Error kInvalidArgument naming the bad
+/// field (threshold <= 0 or not finite, smoothing outside [0, 1),
+/// min_reference < 0, confirmations < 1).
+void ValidateAnomalyOptions(const AnomalyOptions& options);
+
+/// What one observation meant.
+enum class Verdict {
+  kInitialised,     ///< First window after a reset: v := v⁺.
+  kNormal,          ///< Inside the band: v updated by the EMA rule.
+  kSuspect,         ///< Outside the band, not yet confirmed; v kept.
+  kIncrease,        ///< Faster than v + t (not an anomaly unless configured); v := v⁺.
+  kDrop,            ///< Slower than v − t: an anomaly; v kept (the expectation).
+  kIncreaseAnomaly, ///< Faster than v + t with increase_is_anomaly: an anomaly; v kept.
+  kPhysicalChange,  ///< A physical-change event: an anomaly at once.
+};
+
+/// Lower-case name of a verdict ("drop", "physical_change", ...).
+const char* VerdictName(Verdict verdict);
+
+/// True for the verdicts that call for adaptation.
+bool IsAnomaly(Verdict verdict);
+
+/// The outcome of one observation.
+struct Observation {
+  Verdict verdict = Verdict::kInitialised;  ///< What it meant.
+  double measured = 0;   ///< v⁺ [m/s] (0 for an event).
+  double before = 0;     ///< v before the observation [m/s] (0 when uninitialised).
+  double ema = 0;        ///< v after it [m/s].
+  double threshold = 0;  ///< The absolute t used [m/s] (0 when uninitialised).
+  std::string event;     ///< The event kind, for kPhysicalChange.
+};
+
+/// The EMA anomaly rule over a stream of velocity windows and events.
+///
+/// Thread safety: not thread-safe; one thread at a time.
+class AnomalyMonitor {
+ public:
+  /// Validates `options` (see ValidateAnomalyOptions).
+  explicit AnomalyMonitor(AnomalyOptions options = {});
+
+  /// Judges one window's velocity v⁺ [m/s]. Throws kInvalidArgument for a
+  /// non-finite value.
+  Observation Observe(double velocity);
+
+  /// Judges a WatchState event: kPhysicalChange for a kind in
+  /// options.physical_events, otherwise nothing (nullopt-like: verdict
+  /// kNormal with the state unchanged). Never changes v.
+  Observation OnEvent(const std::string& kind);
+
+  /// Forgets v: the next window initialises it.
+  void Reset();
+  /// Sets v to a known velocity (a verified gait), as if initialised.
+  void Seed(double velocity);
+
+  /// True once v holds a value.
+  bool initialised() const { return initialised_; }
+  /// The stored velocity v [m/s] (0 before initialisation).
+  double ema() const { return ema_; }
+  /// The absolute threshold for the current v [m/s].
+  double Threshold() const;
+  /// The options in use.
+  const AnomalyOptions& options() const { return options_; }
+
+ private:
+  AnomalyOptions options_;
+  bool initialised_ = false;
+  double ema_ = 0;
+  int pending_ = 0;     // consecutive out-of-band windows not yet reported
+  int pending_sign_ = 0;  // -1 below the band, +1 above
+};
+
+}  // namespace yamor::lifelong
