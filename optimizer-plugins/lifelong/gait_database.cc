@@ -416,6 +416,19 @@ void GaitDatabase::RecordUse(std::int64_t id, double unix_time, double velocity,
   t.Commit();
 }
 
+void GaitDatabase::SetExpectedVelocity(std::int64_t id, double velocity) {
+  CheckFinite(velocity, "expected velocity");
+  std::lock_guard lock(mu_);
+  Transaction t(db_, path_);
+  Statement s(db_, path_, "UPDATE gaits SET expected_velocity = ? WHERE id = ?");
+  s.Bind(1, velocity).Bind(2, id);
+  s.Run();
+  if (sqlite3_changes(db_) != 1) {
+    throw Error(StatusCode::kNotFound, "gait database " + path_ + ": gait " + std::to_string(id) + " is not stored");
+  }
+  t.Commit();
+}
+
 GaitRecord GaitDatabase::ReadLocked(std::int64_t id) const {
   GaitRecord r;
   {

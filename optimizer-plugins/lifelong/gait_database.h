@@ -142,6 +142,10 @@ class GaitDatabase {
   void RecordUse(std::int64_t id, double unix_time, double velocity,
                  std::optional<std::int64_t> previous, UseOutcome outcome);
 
+  /// Sets the expected velocity of gait `id` (its first window after it was
+  /// learned). kNotFound for an unknown id, kInvalidArgument when not finite.
+  void SetExpectedVelocity(std::int64_t id, double velocity);
+
   /// The gait with `id`, or nullopt.
   std::optional<GaitRecord> Find(std::int64_t id) const;
   /// A stored gait for the same body and orientation with exactly this
