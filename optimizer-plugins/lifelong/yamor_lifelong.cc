@@ -191,6 +191,9 @@ int main(int argc, char** argv) {
     }
     if (!model_hosts.empty()) relearn.model_hosts = optimizer::ParseHosts(model_hosts);
     relearn.model_seed = scenario ? scenario->seed : 0;
+    // Relearning and recall trials: settle, then measure, as the live evaluator does.
+    port_options.live.settle_periods = life.settle_periods;
+    port_options.live.measure_periods = life.trial_periods;
     if (!morphology_path.empty()) port_options.morphology_xml = ReadText(morphology_path, "--morphology");
     const std::vector<optimizer::HostAddress> address = optimizer::ParseHosts(host);
     if (address.size() != 1) throw Error(StatusCode::kInvalidArgument, "--host takes one daemon");
