@@ -6,12 +6,15 @@
 #include <cmath>
 #include <sstream>
 
+#include <Eigen/Core>
+
 #include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
 #include "host/config_frames.h"
 #include "host/sim_factory.h"
+#include "physics/orientation.h"
 #include "physics/script.h"
 
 namespace yamor::host {
@@ -857,6 +860,42 @@ std::vector<AccelerometerSample> RobotDriver::GetAccelerometer(int id, int sampl
     }
     out.push_back(sample);
   }
+  return out;
+}
+
+ModuleOrientation RobotDriver::GetOrientation(int id, int samples,
+                                              std::array<double, 3> reference_up) {
+  if (samples == 0) samples = static_cast<int>(snp::kMaxAccelerometerSamples);
+  const Eigen::Vector3d reference(reference_up[0], reference_up[1], reference_up[2]);
+  if (!reference.allFinite()) {
+    throw Error(StatusCode::kInvalidArgument, "orientation reference_up must be finite, got (" +
+                                                  FormatDouble(reference.x()) + ", " +
+                                                  FormatDouble(reference.y()) + ", " +
+                                                  FormatDouble(reference.z()) + ")");
+  }
+  const std::vector<AccelerometerSample> readings = GetAccelerometer(id, samples);
+  physics::OrientationOptions options;
+  options.window = static_cast<int>(readings.size());
+  options.upside_down_enter = kUpsideDownTilt;
+  options.upside_down_leave = kUpsideDownTilt;
+  if (reference.norm() > 1e-12) options.up_axis = reference;
+  physics::OrientationEstimator estimator(options);
+  ModuleOrientation out;
+  for (const AccelerometerSample& s : readings) {
+    const Eigen::Vector3d f(s.acceleration[0], s.acceleration[1], s.acceleration[2]);
+    out.max_deviation = std::max(out.max_deviation, std::abs(f.norm() - options.gravity));
+    const physics::OrientationEstimate& e = estimator.Add(f);
+    out.valid = e.valid;
+    out.up = {e.up.x(), e.up.y(), e.up.z()};
+    out.tilt = e.tilt;
+    out.upside_down = e.valid && e.upside_down;
+  }
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const AccelerometerSample& s : readings) {
+    mean += Eigen::Vector3d(s.acceleration[0], s.acceleration[1], s.acceleration[2]);
+  }
+  out.samples = static_cast<int>(readings.size());
+  out.magnitude = readings.empty() ? 0.0 : (mean / double(readings.size())).norm();
   return out;
 }
 

@@ -134,6 +134,21 @@ struct AccelerometerSample {
   std::array<double, 3> acceleration{};    ///< (count - zero)·δ [m/s²], module frame.
 };
 
+/// A module's orientation from its accelerometer (GetOrientation).
+struct ModuleOrientation {
+  bool valid = false;                 ///< The mean looks like gravity alone.
+  std::array<double, 3> up{0, 0, 1};  ///< World up in the module frame (unit).
+  double tilt = 0;                    ///< Angle of `up` to the reference [rad].
+  bool upside_down = false;           ///< valid and tilt > kUpsideDownTilt.
+  double magnitude = 0;               ///< |mean| [m/s²].
+  double max_deviation = 0;           ///< Largest ||sample| − g| [m/s²].
+  int samples = 0;                    ///< Samples used.
+};
+
+/// Tilt beyond which GetOrientation calls a module upside down [rad] (120°):
+/// far from what walking reaches, close enough to a flip (thesis 7.5.2).
+inline constexpr double kUpsideDownTilt = 2.0943951023931957;
+
 /// What GetInfo shows about the driver.
 struct DriverInfo {
   std::string backend;        ///< "simulation", "serial", "fake" or "none".
@@ -255,6 +270,11 @@ class RobotDriver {
   std::vector<std::pair<int, double>> GetServoAngles(const std::vector<int>& ids);
   /// The last `samples` (1..16; 0 = 1) accelerometer samples of a module.
   std::vector<AccelerometerSample> GetAccelerometer(int id, int samples);
+  /// Orientation of module `id` from the mean of its latest `samples`
+  /// (1..16; 0 = 16) accelerometer samples, tilt against `reference_up`
+  /// (module frame; zero = +z). Same errors as GetAccelerometer, plus
+  /// kInvalidArgument for a non-finite reference.
+  ModuleOrientation GetOrientation(int id, int samples, std::array<double, 3> reference_up);
   /// Marks a motor defect (C.2.6): sends motor-off when connected, blocks
   /// later motor-on, and in simulation makes the servo limp or stuck.
   void SetMotorDefect(int id, MotorDefect defect);

@@ -451,6 +451,31 @@ grpc::Status HostServiceImpl::GetAccelerometer(grpc::ServerContext* context,
   });
 }
 
+grpc::Status HostServiceImpl::GetOrientation(grpc::ServerContext* context,
+                                             const v1::GetOrientationRequest* request,
+                                             v1::GetOrientationResponse* response) {
+  return Serve(context, "GetOrientation", [&] {
+    if (request->samples() > snp::kMaxAccelerometerSamples) {
+      throw Error(StatusCode::kOutOfRange,
+                  "orientation samples " + std::to_string(request->samples()) +
+                      " is outside [1, 16]");
+    }
+    const v1::Vector3& r = request->reference_up();
+    const ModuleOrientation o =
+        driver_.GetOrientation(ModuleId(request->module_id()), static_cast<int>(request->samples()),
+                               {r.x(), r.y(), r.z()});
+    response->set_valid(o.valid);
+    response->mutable_up()->set_x(o.up[0]);
+    response->mutable_up()->set_y(o.up[1]);
+    response->mutable_up()->set_z(o.up[2]);
+    response->set_tilt(o.tilt);
+    response->set_upside_down(o.upside_down);
+    response->set_magnitude(o.magnitude);
+    response->set_max_deviation(o.max_deviation);
+    response->set_samples(static_cast<uint32_t>(o.samples));
+  });
+}
+
 grpc::Status HostServiceImpl::TurnUpsideDown(grpc::ServerContext* context, const Empty*, Empty*) {
   return Serve(context, "TurnUpsideDown", [&] { driver_.TurnUpsideDown(); });
 }

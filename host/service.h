@@ -201,6 +201,10 @@ class HostServiceImpl final : public yamor::v1::Host::Service {
   grpc::Status GetAccelerometer(grpc::ServerContext* context,
                                 const yamor::v1::GetAccelerometerRequest* request,
                                 yamor::v1::GetAccelerometerResponse* response) override;
+  /// The GetOrientation RPC.
+  grpc::Status GetOrientation(grpc::ServerContext* context,
+                              const yamor::v1::GetOrientationRequest* request,
+                              yamor::v1::GetOrientationResponse* response) override;
   /// The TurnUpsideDown RPC.
   grpc::Status TurnUpsideDown(grpc::ServerContext* context, const google::protobuf::Empty* request,
                               google::protobuf::Empty* response) override;

@@ -53,6 +53,7 @@ WRAPPER = {
     "SetGround": "set_ground",
     "GetServoAngles": "servo_angles",
     "GetAccelerometer": "accelerometer",
+    "GetOrientation": "orientation",
     "ResetSimulation": "reset",
     "TurnUpsideDown": "turn_upside_down",
     "WatchState": "watch",
@@ -121,6 +122,8 @@ def test_thesis_session_moves_the_robot(host):
     assert any(abs(a) > 0.05 for a in angles.values())
     samples = host.accelerometer(opened.module_ids[0], samples=3)  # UART is on
     assert len(samples) == 3
+    upright = host.orientation(opened.module_ids[0])
+    assert upright.samples == 16 and not upright.upside_down
     # Reset returns to time 0 at the start pose.
     host.reset()
     assert host.elapsed_time() == 0.0
@@ -173,6 +176,7 @@ def test_config_save_load_round_trip(fresh):
     (lambda h: h.open_simulation(world="no-such-world"), "NOT_FOUND"),
     (lambda h: h.evaluate({"bogus.1": 1.0}), "INVALID_ARGUMENT"),
     (lambda h: h.accelerometer(0, samples=17), "OUT_OF_RANGE"),
+    (lambda h: h.orientation(0, samples=17), "OUT_OF_RANGE"),
     (lambda h: h.sleep(-1.0), "OUT_OF_RANGE"),
 ])
 def test_errors_raise_host_error_and_the_daemon_survives(fresh, call, code):

@@ -102,6 +102,7 @@ class RecordingHost final : public v1::Host::Service {
   YAMOR_FAKE(SetGround, v1::SetGroundRequest, Empty)
   YAMOR_FAKE(GetServoAngles, v1::GetServoAnglesRequest, v1::GetServoAnglesResponse)
   YAMOR_FAKE(GetAccelerometer, v1::GetAccelerometerRequest, v1::GetAccelerometerResponse)
+  YAMOR_FAKE(GetOrientation, v1::GetOrientationRequest, v1::GetOrientationResponse)
   YAMOR_FAKE(ResetSimulation, Empty, Empty)
   YAMOR_FAKE(TurnUpsideDown, Empty, Empty)
   YAMOR_FAKE(Evaluate, v1::EvaluateRequest, v1::EvaluateResponse)
@@ -273,6 +274,8 @@ TEST_F(YamorctlTest, EveryCommandSendsItsRequest) {
       {{"servos"}, "GetServoAngles", ""},
       {{"servos", "1", "2"}, "GetServoAngles", "module_ids: 1 module_ids: 2"},
       {{"accel", "4", "--samples", "3"}, "GetAccelerometer", "module_id: 4 samples: 3"},
+      {{"orientation", "4", "--samples", "8", "--reference", "0", "1", "0"},
+       "GetOrientation", "module_id: 4 samples: 8 reference_up { y: 1 }"},
       {{"reset"}, "ResetSimulation", ""},
       {{"upside-down"}, "TurnUpsideDown", ""},
       {{"watch", "--period", "0.5", "--count", "1"}, "WatchState", "period: 0.5"},

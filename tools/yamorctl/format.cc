@@ -90,6 +90,21 @@ std::string FormatAccelerometer(const v1::GetAccelerometerResponse& r) {
   return text;
 }
 
+std::string FormatOrientation(const v1::GetOrientationResponse& r) {
+  constexpr double kDegrees = 180.0 / 3.14159265358979323846;
+  if (!r.valid()) {
+    return fmt::format("not valid: accelerating (|mean| {:.2f} m/s^2 over {} samples)\n",
+                       r.magnitude(), r.samples());
+  }
+  return fmt::format(
+      "up           {}\n"
+      "tilt         {:.1f} deg\n"
+      "upside down  {}\n"
+      "|mean|       {:.2f} m/s^2, largest deviation {:.2f} m/s^2 over {} samples\n",
+      Vec(r.up()), r.tilt() * kDegrees, r.upside_down() ? "yes" : "no", r.magnitude(),
+      r.max_deviation(), r.samples());
+}
+
 std::string FormatEvaluation(const v1::EvaluateResponse& r) {
   std::string text;
   if (r.diverged()) text += fmt::format("diverged: {}\n", r.divergence());

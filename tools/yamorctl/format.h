@@ -31,6 +31,8 @@ std::string FormatServoAngles(const v1::GetServoAnglesResponse& response);
 
 /// GetAccelerometer: one line per sample (raw counts and m/s^2).
 std::string FormatAccelerometer(const v1::GetAccelerometerResponse& response);
+/// GetOrientation: up vector, tilt in degrees, upside down.
+std::string FormatOrientation(const v1::GetOrientationResponse& response);
 
 /// Evaluate: velocity, distance, final position, divergence, trajectory.
 std::string FormatEvaluation(const v1::EvaluateResponse& response);

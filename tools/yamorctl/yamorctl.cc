@@ -690,6 +690,32 @@ void AddModelCommands(CLI::App& app, Action& action) {
       };
     });
   }
+  {
+    struct Args {
+      uint32_t id = 0, samples = 0;
+      std::vector<double> reference;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* c = app.add_subcommand(
+        "orientation", "Orientation of module ID from its accelerometer (UART on): tilt, upside down");
+    c->add_option("ID", a->id, "Module id")->required();
+    c->add_option("--samples", a->samples, "Latest samples averaged, 1..16 (default 16)");
+    c->add_option("--reference", a->reference, "Upright up direction in the module frame: X Y Z")
+        ->expected(3);
+    c->callback([&action, a] {
+      action = [a](Session& s) {
+        v1::GetOrientationRequest request;
+        request.set_module_id(a->id);
+        request.set_samples(a->samples);
+        if (a->reference.size() == 3) {
+          request.mutable_reference_up()->set_x(a->reference[0]);
+          request.mutable_reference_up()->set_y(a->reference[1]);
+          request.mutable_reference_up()->set_z(a->reference[2]);
+        }
+        return s.Unary(&v1::Host::Stub::GetOrientation, request, s.Timeout(), FormatOrientation);
+      };
+    });
+  }
 }
 
 // ---- evaluate, watch ---------------------------------------------------------------

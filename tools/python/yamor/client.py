@@ -124,6 +124,19 @@ class Accelerometer:
 
 
 @dataclass(frozen=True)
+class Orientation:
+    """A module's orientation from its accelerometer (GetOrientation)."""
+
+    valid: bool           # the samples' mean looks like gravity alone
+    up: Vector            # world up in the module frame (unit)
+    tilt: float           # angle of up to the reference [rad]
+    upside_down: bool     # valid and tilt > 120 degrees
+    magnitude: float      # |mean| [m/s^2]
+    max_deviation: float  # largest | |sample| - g | [m/s^2]
+    samples: int
+
+
+@dataclass(frozen=True)
 class Event:
     """A state event of WatchState ("module_connected", "defect_set", ...)."""
 
@@ -526,6 +539,21 @@ class Host:
         r = self._call("GetAccelerometer",
                        pb.GetAccelerometerRequest(module_id=module_id, samples=samples), timeout)
         return [Accelerometer((s.x, s.y, s.z), _vector(s.acceleration)) for s in r.samples]
+
+    def orientation(self, module_id: int, samples: int = 0,
+                    reference_up: Optional[Tuple[float, float, float]] = None,
+                    timeout: Optional[float] = None) -> Orientation:
+        """Orientation of a module from its latest accelerometer samples (GetOrientation).
+
+        samples: 1..16, 0 = 16. reference_up: the module's up direction when the
+        robot stands upright (module frame); None = its +z axis.
+        """
+        request = pb.GetOrientationRequest(module_id=module_id, samples=samples)
+        if reference_up is not None:
+            request.reference_up.x, request.reference_up.y, request.reference_up.z = reference_up
+        r = self._call("GetOrientation", request, timeout)
+        return Orientation(r.valid, _vector(r.up), r.tilt, r.upside_down, r.magnitude,
+                           r.max_deviation, r.samples)
 
     def reset(self, timeout: Optional[float] = None) -> None:
         """Restores the simulation to its state when opened (ResetSimulation)."""

@@ -199,6 +199,34 @@ class GetMorphologyResponse(_message.Message):
     morphology_xml: str
     def __init__(self, morphology_xml: _Optional[str] = ..., central_module: _Optional[int] = ...) -> None: ...
 
+class GetOrientationRequest(_message.Message):
+    __slots__ = ["module_id", "reference_up", "samples"]
+    MODULE_ID_FIELD_NUMBER: _ClassVar[int]
+    REFERENCE_UP_FIELD_NUMBER: _ClassVar[int]
+    SAMPLES_FIELD_NUMBER: _ClassVar[int]
+    module_id: int
+    reference_up: Vector3
+    samples: int
+    def __init__(self, module_id: _Optional[int] = ..., samples: _Optional[int] = ..., reference_up: _Optional[_Union[Vector3, _Mapping]] = ...) -> None: ...
+
+class GetOrientationResponse(_message.Message):
+    __slots__ = ["magnitude", "max_deviation", "samples", "tilt", "up", "upside_down", "valid"]
+    MAGNITUDE_FIELD_NUMBER: _ClassVar[int]
+    MAX_DEVIATION_FIELD_NUMBER: _ClassVar[int]
+    SAMPLES_FIELD_NUMBER: _ClassVar[int]
+    TILT_FIELD_NUMBER: _ClassVar[int]
+    UPSIDE_DOWN_FIELD_NUMBER: _ClassVar[int]
+    UP_FIELD_NUMBER: _ClassVar[int]
+    VALID_FIELD_NUMBER: _ClassVar[int]
+    magnitude: float
+    max_deviation: float
+    samples: int
+    tilt: float
+    up: Vector3
+    upside_down: bool
+    valid: bool
+    def __init__(self, valid: bool = ..., up: _Optional[_Union[Vector3, _Mapping]] = ..., tilt: _Optional[float] = ..., upside_down: bool = ..., magnitude: _Optional[float] = ..., max_deviation: _Optional[float] = ..., samples: _Optional[int] = ...) -> None: ...
+
 class GetServoAnglesRequest(_message.Message):
     __slots__ = ["module_ids"]
     MODULE_IDS_FIELD_NUMBER: _ClassVar[int]

@@ -212,6 +212,11 @@ class HostStub(object):
                 request_serializer=yamor_dot_v1_dot_host__pb2.GetAccelerometerRequest.SerializeToString,
                 response_deserializer=yamor_dot_v1_dot_host__pb2.GetAccelerometerResponse.FromString,
                 )
+        self.GetOrientation = channel.unary_unary(
+                '/yamor.v1.Host/GetOrientation',
+                request_serializer=yamor_dot_v1_dot_host__pb2.GetOrientationRequest.SerializeToString,
+                response_deserializer=yamor_dot_v1_dot_host__pb2.GetOrientationResponse.FromString,
+                )
         self.ResetSimulation = channel.unary_unary(
                 '/yamor.v1.Host/ResetSimulation',
                 request_serializer=google_dot_protobuf_dot_empty__pb2.Empty.SerializeToString,
@@ -524,6 +529,15 @@ class HostServicer(object):
         context.set_details('Method not implemented!')
         raise NotImplementedError('Method not implemented!')
 
+    def GetOrientation(self, request, context):
+        """Orientation of one module from its accelerometer: the gravity direction
+        of its latest samples, tilt against an upright reference, upside down
+        (thesis 4.5.3 and 7.3). Works on a real robot as on a simulation.
+        """
+        context.set_code(grpc.StatusCode.UNIMPLEMENTED)
+        context.set_details('Method not implemented!')
+        raise NotImplementedError('Method not implemented!')
+
     def ResetSimulation(self, request, context):
         """Restores the simulation to its state when opened (time 0).
         """
@@ -759,6 +773,11 @@ def add_HostServicer_to_server(servicer, server):
                     servicer.GetAccelerometer,
                     request_deserializer=yamor_dot_v1_dot_host__pb2.GetAccelerometerRequest.FromString,
                     response_serializer=yamor_dot_v1_dot_host__pb2.GetAccelerometerResponse.SerializeToString,
+            ),
+            'GetOrientation': grpc.unary_unary_rpc_method_handler(
+                    servicer.GetOrientation,
+                    request_deserializer=yamor_dot_v1_dot_host__pb2.GetOrientationRequest.FromString,
+                    response_serializer=yamor_dot_v1_dot_host__pb2.GetOrientationResponse.SerializeToString,
             ),
             'ResetSimulation': grpc.unary_unary_rpc_method_handler(
                     servicer.ResetSimulation,
@@ -1457,6 +1476,23 @@ class Host(object):
         return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/GetAccelerometer',
             yamor_dot_v1_dot_host__pb2.GetAccelerometerRequest.SerializeToString,
             yamor_dot_v1_dot_host__pb2.GetAccelerometerResponse.FromString,
+            options, channel_credentials,
+            insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
+
+    @staticmethod
+    def GetOrientation(request,
+            target,
+            options=(),
+            channel_credentials=None,
+            call_credentials=None,
+            insecure=False,
+            compression=None,
+            wait_for_ready=None,
+            timeout=None,
+            metadata=None):
+        return grpc.experimental.unary_unary(request, target, '/yamor.v1.Host/GetOrientation',
+            yamor_dot_v1_dot_host__pb2.GetOrientationRequest.SerializeToString,
+            yamor_dot_v1_dot_host__pb2.GetOrientationResponse.FromString,
             options, channel_credentials,
             insecure, call_credentials, compression, wait_for_ready, timeout, metadata)
 
