@@ -69,8 +69,9 @@ std::vector<std::string> WithScenarioOptions(const std::vector<std::string>& arg
   for (const auto& [name, values] : scenario.options) {
     if (given.count(name)) continue;
     for (const std::string& v : values) {
+      if (v == "false") continue;  // a flag left off
       out.push_back("--" + name);
-      out.push_back(v);
+      if (v != "true") out.push_back(v);  // a flag given
     }
   }
   out.insert(out.end(), args.begin() + 1, args.end());

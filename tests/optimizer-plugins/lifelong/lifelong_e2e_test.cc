@@ -218,12 +218,12 @@ module = 5
   EXPECT_EQ(gaits[1].config_xml.find("<cpglink to=\"5\""), std::string::npos) << "no coupling to the dead module";
 }
 
-TEST_F(LifelongE2eTest, ASlipperyGroundGaitIsStoredAndRecalledInTheNextLife) {
-  const std::string scenario = Scenario("slippery", R"(world = "quadruped"
+TEST_F(LifelongE2eTest, AStickyGroundGaitIsStoredAndRecalledInTheNextLife) {
+  const std::string scenario = Scenario("sticky", R"(world = "quadruped"
 [[change]]
 at = 12
 do = "ground"
-friction = 0.05
+friction = 3.0
 )");
   const fs::path out1 = dir_ / "life1", out2 = dir_ / "life2";
   const std::string db = (dir_ / "gaits.sqlite").string();
