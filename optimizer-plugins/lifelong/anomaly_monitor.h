@@ -23,7 +23,7 @@ struct AnomalyOptions {
   bool relative = true;
   /// [m/s] Floor of the reference of a relative threshold, so a robot that
   /// barely moves does not alarm on noise.
-  double min_reference = 0.005;
+  double min_reference = 0.01;
   /// The EMA weight of the stored velocity (the thesis's 0.9).
   double smoothing = 0.9;
   /// A window faster than v + t is an anomaly too (by default it is only

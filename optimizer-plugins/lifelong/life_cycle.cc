@@ -216,7 +216,10 @@ void LifeCycle::Start(const InitialGait& initial) {
     if (driven) driven_.insert(id);
   }
   const std::string key = cpg::MorphologyKey(WithKnownActivity(body, driven_, dead_));
-  port_.Settle(options_.settle_periods);
+  // From rest the robot needs a while to reach its gait: one window more
+  // than after a gait change, so the first window does not set a low
+  // expectation.
+  port_.Settle(options_.settle_periods + options_.window_periods);
   last_robot_time_ = port_.Now();
   const AccelReading accel = port_.ReadAccelerometer();
   double norm = 0;
@@ -327,12 +330,14 @@ std::optional<LifeCycle::Anomaly> LifeCycle::TakeEvents() {
     Event(e.time, "robot_event", fields);
     const Observation o = monitor_.OnEvent(e.kind);
     if (o.verdict == Verdict::kPhysicalChange && !first) {
+      // Detected now (after the window it came in), reported at e.time.
       first = Anomaly{.trigger = e.kind,
-                      .time = e.time,
+                      .time = std::max(e.time, last_robot_time_),
                       .velocity_before = monitor_.ema(),
                       .velocity_after = 0,
                       .module_id = e.module_id,
-                      .detail = e.detail};
+                      .detail = e.detail,
+                      .event_time = e.time};
     }
   }
   return first;
@@ -408,6 +413,7 @@ void LifeCycle::Adapt(Anomaly anomaly, bool resumed) {
         {"velocity_after", JsonNumber(anomaly.velocity_after)},
         {"gait", JsonInt(current_.id)}};
     if (anomaly.module_id >= 0) fields.emplace_back("module", JsonInt(anomaly.module_id));
+    if (anomaly.event_time >= 0) fields.emplace_back("event_time", JsonNumber(LifeTime(anomaly.event_time)));
     if (!anomaly.detail.empty()) fields.emplace_back("detail", JsonString(anomaly.detail));
     Event(anomaly.time, "anomaly", fields);
     Row(anomaly.time, kNaN, "anomaly: " + anomaly.trigger);

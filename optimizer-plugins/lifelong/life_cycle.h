@@ -109,6 +109,7 @@ class LifeCycle {
     double velocity_after = 0;   // the window that showed it (0 for events)
     int module_id = -1;
     std::string detail;
+    double event_time = -1;      // robot time the daemon reported the event at
   };
   struct Gait {
     std::int64_t id = 0;

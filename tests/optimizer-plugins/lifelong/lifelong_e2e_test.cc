@@ -298,5 +298,29 @@ TEST_F(LifelongE2eTest, ADamagedDatabaseOrAMissingGaitIsAClearError) {
             2);
 }
 
+// No false alarm: every robot of configs/ walks its configured gait
+// undisturbed with the default threshold and three-period windows (the short
+// version of the 30-minute check in tools/bench/lifelong_bench.py).
+class NoFalseAlarmTest : public LifelongE2eTest, public ::testing::WithParamInterface<const char*> {};
+
+TEST_P(NoFalseAlarmTest, UndisturbedWalkingRaisesNoAnomaly) {
+  const std::string robot = GetParam();
+  const fs::path scenario = dir_ / "walk.toml";
+  std::ofstream(scenario) << "world = \"" << robot << "\"\nconfig = \"" << kSource << "/configs/robots/" << robot
+                          << ".xml\"\nseed = 1\n";
+  const fs::path out = dir_ / "out";
+  std::string text;
+  ASSERT_EQ(Run({"--host", "127.0.0.1:" + std::to_string(port_), "--scenario", scenario.string(), "--out",
+                 out.string(), "--max-time", "120", "--no-plot", "--quiet", "--log-level", "warn"},
+                &text),
+            0)
+      << text;
+  EXPECT_TRUE(Events(out, "anomaly").empty()) << Read(out / "timeline.csv");
+  EXPECT_EQ(Field(Events(out, "end")[0], "reason"), "time limit");
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, NoFalseAlarmTest,
+                         ::testing::Values("quadruped", "snake", "tripod", "dog", "trebuchet", "wheel"));
+
 }  // namespace
 }  // namespace yamor::lifelong
