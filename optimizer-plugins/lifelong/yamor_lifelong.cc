@@ -21,6 +21,7 @@
 #include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
+#include "cpg/config_xml.h"
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/progress.h"
 #include "optimizer-plugins/lifelong/daemon_port.h"
@@ -201,10 +202,16 @@ int main(int argc, char** argv) {
 
     // The starting gait: an optimization configuration keeps its rules.
     const std::string text = ReadText(config_path, "--config");
-    const optimizer::OptimizationConfig start = optimizer::OptimizationConfig::Parse(text, config_path);
-    InitialGait initial{.config_xml = start.RobotXml(),
-                        .problem_xml = start.optimized().empty() ? "" : text,
-                        .source = config_path};
+    InitialGait initial{.source = config_path};
+    try {
+      initial.config_xml = cpg::WriteConfigXml(cpg::ParseConfigXml(text, config_path));  // a plain robot
+    } catch (const Error&) {
+      // Not a plain robot: an optimization configuration (or a malformed file,
+      // which this parse reports).
+      const optimizer::OptimizationConfig start = optimizer::OptimizationConfig::Parse(text, config_path);
+      initial.config_xml = start.RobotXml();
+      initial.problem_xml = text;
+    }
 
     fs::create_directories(out_dir);
     life.out_dir = out_dir;
