@@ -103,6 +103,10 @@ LifeCycle::LifeCycle(RobotPort& port, Relearner& relearner, GaitDatabase& db, Li
     throw Error(StatusCode::kInvalidArgument,
                 "orientation cosine " + FormatRounded(options_.orientation_cos) + " is outside (0, 1)");
   }
+  if (options_.orientation_learn_windows < 0 || options_.orientation_confirmations < 1) {
+    throw Error(StatusCode::kInvalidArgument,
+                "orientation learning windows must be >= 0 and confirmations >= 1");
+  }
   if (options_.max_recall < 0 || options_.max_anomalies < 0) {
     throw Error(StatusCode::kInvalidArgument, "recall and anomaly limits must be >= 0");
   }
@@ -259,6 +263,7 @@ void LifeCycle::Start(const InitialGait& initial) {
                   .expected = record->expected_velocity};
   first_window_ = FirstWindow::kRecordUse;
   monitor_.Reset();
+  NewGait();
   Event(last_robot_time_, "start",
         {{"gait", JsonInt(current_.id)},
          {"known", JsonBool(known)},
@@ -295,11 +300,32 @@ void LifeCycle::Step() {
     Adapt(*anomaly, false);
     return;
   }
+  // Orientation: a gait whose own motion turns the central module (a rolling
+  // wheel) is not watched; otherwise a flip counts at once when the velocity
+  // also fell, else after orientation_confirmations windows.
   const std::optional<Orientation> orientation = Classify(accel);
-  if (orientation && *orientation != current_.orientation) {
+  bool flipped = false;
+  if (orientation_watched_) {
+    const bool off = !orientation || *orientation != current_.orientation;
+    if (orientation_seen_ < options_.orientation_learn_windows) {
+      ++orientation_seen_;
+      if (off) {
+        orientation_watched_ = false;
+        Event(w.end_time, "orientation_not_watched",
+              {{"gait", JsonInt(current_.id)},
+               {"reason", JsonString("the gait's own motion turns the central module")}});
+      }
+    } else if (orientation && *orientation != current_.orientation) {
+      ++orientation_flips_;
+      flipped = true;
+    } else {
+      orientation_flips_ = 0;
+    }
+  }
+  if (flipped && (IsAnomaly(o.verdict) || orientation_flips_ >= options_.orientation_confirmations)) {
     Adapt(Anomaly{.trigger = "orientation",
                   .time = w.end_time,
-                  .velocity_before = monitor_.ema(),
+                  .velocity_before = o.before,
                   .velocity_after = w.velocity,
                   .detail = OrientationName(*orientation)},
           false);
@@ -430,7 +456,9 @@ void LifeCycle::Adapt(Anomaly anomaly, bool resumed) {
   auto [graph, morphology_xml] = CurrentBody(&key);
   const AccelReading accel = port_.ReadAccelerometer();
   if (accel.valid) last_accel_ = accel;
-  orientation_ = Classify(accel).value_or(orientation_);
+  if (orientation_watched_ || anomaly.trigger == "orientation") {
+    orientation_ = Classify(accel).value_or(orientation_);
+  }
   last_robot_time_ = port_.Now();
   const bool body_changed = key != current_.key;
   Symptoms symptoms;
@@ -498,6 +526,7 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
                       .orientation = orientation,
                       .expected = w.velocity};
       monitor_.Seed(w.velocity);
+      NewGait();
       {
         std::lock_guard lock(mu_);
         ++status_.recalls;
@@ -548,6 +577,11 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
   long long trials = 0;
   const RelearnResult result = relearner_.Relearn(request, [&](const Trial& t) {
     last_robot_time_ = t.time;
+    // Life ends at its time limit even in the middle of a relearning (its
+    // best so far is kept).
+    if (options_.max_life_seconds > 0 && LifeTime(t.time) >= options_.max_life_seconds) {
+      relearner_.RequestStop();
+    }
     ++trials;
     {
       std::lock_guard lock(mu_);
@@ -585,6 +619,7 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
     port_.Walk(current_.config_xml);
     port_.Settle(options_.settle_periods);
     monitor_.Reset();
+    NewGait();
     first_window_ = FirstWindow::kUpdateExpected;
     return;
   }
@@ -620,7 +655,14 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
   // The best of many noisy trials overstates the gait: the next window sets
   // the expectation, the monitor's and the database's.
   monitor_.Reset();
+  NewGait();
   first_window_ = FirstWindow::kUpdateExpected;
+}
+
+void LifeCycle::NewGait() {
+  orientation_watched_ = up_.has_value();
+  orientation_seen_ = 0;
+  orientation_flips_ = 0;
 }
 
 void LifeCycle::HandleLoss(const std::string& error) {

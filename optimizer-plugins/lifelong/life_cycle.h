@@ -45,6 +45,13 @@ struct LifeOptions {
   /// |cos| between the accelerometer's mean and the upright reference
   /// beyond which the orientation is decided (else it is kept).
   double orientation_cos = 0.5;
+  /// Windows after a gait starts whose orientation must be the gait's; if
+  /// one is not, the gait's own motion turns the central module (a rolling
+  /// wheel) and its orientation is not watched.
+  int orientation_learn_windows = 2;
+  /// Consecutive flipped windows that make an anomaly when the velocity did
+  /// not fall (with a velocity anomaly, one flipped window names the cause).
+  int orientation_confirmations = 2;
   /// Modules connected during life that the initial configuration does not
   /// drive get an oscillator when the network is rebuilt.
   bool drive_new_modules = true;
@@ -130,7 +137,8 @@ class LifeCycle {
   void Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, const std::string& key,
                Orientation orientation, const Symptoms& symptoms, bool body_changed,
                const std::string& morphology_xml);
-  void SwitchTo(const Gait& gait, double velocity);
+  // A new gait walks: its orientation is learned again.
+  void NewGait();
   // Handles the events that came in; returns the first physical change.
   std::optional<Anomaly> TakeEvents();
   void Note(const RobotEvent& event);
@@ -161,6 +169,9 @@ class LifeCycle {
   std::optional<double> friction_, slope_, slope_direction_;  // last ground events
   std::optional<std::array<double, 3>> up_;  // accelerometer reference, unit
   Orientation orientation_ = Orientation::kUpright;
+  bool orientation_watched_ = false;  // this gait's orientation is watched
+  int orientation_seen_ = 0;          // windows of this gait seen while learning
+  int orientation_flips_ = 0;         // consecutive flipped windows
   AccelReading last_accel_;
   std::optional<Anomaly> pending_;  // an anomaly being handled (resumed after a gap)
   std::optional<Anomaly> next_;     // an anomaly found while reattaching, not yet handled

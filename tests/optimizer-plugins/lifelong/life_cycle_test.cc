@@ -110,6 +110,9 @@ class FakeRobot final : public RobotPort {
   bool restart_on_reattach = false;
   int reattaches = 0;
   std::atomic<bool> stop{false};
+  bool rolling = false;     // the gait turns the central module over and over
+  bool tilted = false;      // upside down for the accelerometer only
+  int accel_reads = 0;
 
   double Now() override { return time; }
   Window Measure(double periods) override {
@@ -131,7 +134,8 @@ class FakeRobot final : public RobotPort {
     AccelReading r;
     r.valid = true;
     r.samples = 16;
-    r.mean = {0.3, 0.0, world.upside_down ? -9.6 : 9.7};
+    const bool down = world.upside_down || tilted || (rolling && (accel_reads++ % 3 == 1));
+    r.mean = {0.3, 0.0, down ? -9.6 : 9.7};
     r.spread = 0.5;
     return r;
   }
@@ -192,6 +196,7 @@ class FakeRelearner final : public Relearner {
   std::vector<RelearnRequest> requests;
   int fail_first = 0;  // the first N runs fail with this code (0: none)
   int failures_left = 0;
+  std::atomic<bool> stopped{false};
 
   RelearnResult Relearn(const RelearnRequest& request, const std::function<void(const Trial&)>& on_trial) override {
     requests.push_back(request);
@@ -208,7 +213,7 @@ class FakeRelearner final : public Relearner {
     const auto& rule = config.optimized().at(0);
     double best = -1;
     std::vector<double> best_x = x;
-    for (int i = 0; i <= 10; ++i) {
+    for (int i = 0; i <= 10 && !stopped.load(); ++i) {
       x[0] = rule.min + (rule.max - rule.min) * i / 10.0;
       robot_.Walk(cpg::WriteConfigXml(config.Apply(x)));
       const Window w = robot_.Measure(3);
@@ -229,7 +234,7 @@ class FakeRelearner final : public Relearner {
     result.evaluations = result.trials;
     return result;
   }
-  void RequestStop() override {}
+  void RequestStop() override { stopped.store(true); }
   std::string mode() const override { return "fake"; }
 
  private:
@@ -415,6 +420,30 @@ TEST_F(LifeCycleTest, TurnedOverTheAccelerometerTriggersAndTheGaitIsStoredUpside
   EXPECT_EQ(gaits[1].morphology_key, gaits[0].morphology_key);
   EXPECT_TRUE(gaits[1].symptoms.has_acceleration);
   EXPECT_LT(gaits[1].symptoms.acceleration[2], 0);
+}
+
+TEST_F(LifeCycleTest, AFlipThatDoesNotSlowTheRobotIsAnAnomalyAfterTwoWindows) {
+  robot_.schedule.emplace(91, [](FakeRobot& r) { r.tilted = true; });
+  Live(200);
+  ASSERT_EQ(Anomalies("orientation"), 1);
+  // Windows end at 92, 98, ...: seen at 92, confirmed at 98.
+  EXPECT_DOUBLE_EQ(log_.Of("anomaly")[0]->time, 98);
+}
+
+TEST_F(LifeCycleTest, AGaitThatTurnsTheCentralModuleIsNotWatchedForOrientation) {
+  robot_.rolling = true;
+  const LifeSummary s = Live(600);
+  EXPECT_EQ(s.status.anomalies, 0);
+  ASSERT_EQ(log_.Of("orientation_not_watched").size(), 1u);
+}
+
+TEST_F(LifeCycleTest, TheTimeLimitEndsARelearningWithItsBestSoFar) {
+  robot_.schedule.emplace(60, [](FakeRobot& r) { r.world.slippery = true; });
+  const LifeSummary s = Live(100);  // the relearning starts at about 70 s and would take 66 s
+  EXPECT_EQ(s.reason, "time limit");
+  EXPECT_LT(s.status.time, 110);
+  ASSERT_EQ(log_.Of("relearned").size(), 1u);
+  EXPECT_EQ(db_->All().size(), 2u);
 }
 
 TEST_F(LifeCycleTest, AModuleDefectRebuildsTheNetworkWithoutThatOscillator) {
