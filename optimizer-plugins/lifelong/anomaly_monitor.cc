@@ -22,6 +22,14 @@ void ValidateAnomalyOptions(const AnomalyOptions& options) {
     throw Error(StatusCode::kInvalidArgument,
                 "minimum reference velocity " + FormatRounded(options.min_reference) + " must be >= 0");
   }
+  if (!(std::isfinite(options.noise_factor) && options.noise_factor >= 0)) {
+    throw Error(StatusCode::kInvalidArgument,
+                "noise factor " + FormatRounded(options.noise_factor) + " must be >= 0");
+  }
+  if (options.learn_windows < 1) {
+    throw Error(StatusCode::kInvalidArgument,
+                "learning windows " + std::to_string(options.learn_windows) + " must be >= 1");
+  }
   if (options.confirmations < 1) {
     throw Error(StatusCode::kInvalidArgument,
                 "anomaly confirmations " + std::to_string(options.confirmations) + " must be >= 1");
@@ -31,6 +39,7 @@ void ValidateAnomalyOptions(const AnomalyOptions& options) {
 const char* VerdictName(Verdict verdict) {
   switch (verdict) {
     case Verdict::kInitialised: return "initialised";
+    case Verdict::kLearning: return "learning";
     case Verdict::kNormal: return "normal";
     case Verdict::kSuspect: return "suspect";
     case Verdict::kIncrease: return "increase";
@@ -52,8 +61,9 @@ AnomalyMonitor::AnomalyMonitor(AnomalyOptions options) : options_(std::move(opti
 
 double AnomalyMonitor::Threshold() const {
   if (!initialised_) return 0;
-  return options_.relative ? options_.threshold * std::max(std::fabs(ema_), options_.min_reference)
-                           : options_.threshold;
+  const double rule = options_.relative ? options_.threshold * std::max(std::fabs(ema_), options_.min_reference)
+                                        : options_.threshold;
+  return std::max(rule, options_.noise_factor * noise_);
 }
 
 Observation AnomalyMonitor::Observe(double velocity) {
@@ -66,17 +76,33 @@ Observation AnomalyMonitor::Observe(double velocity) {
   if (!initialised_) {
     initialised_ = true;
     ema_ = velocity;
+    seen_ = 1;
+    noise_ = 0;
     pending_ = 0;
     o.verdict = Verdict::kInitialised;
     o.ema = ema_;
     o.threshold = Threshold();
     return o;
   }
+  const double deviation = velocity - ema_;
+  if (options_.noise_factor > 0 && seen_ < options_.learn_windows) {
+    // Learning: v the mean of the windows so far, d the mean |deviation|.
+    noise_ += (std::fabs(deviation) - noise_) / seen_;
+    ++seen_;
+    ema_ += (velocity - ema_) / seen_;
+    o.verdict = Verdict::kLearning;
+    o.ema = ema_;
+    o.threshold = Threshold();
+    return o;
+  }
+  ++seen_;
   const double t = Threshold();
   o.threshold = t;
-  const double deviation = velocity - ema_;
   if (std::fabs(deviation) < t) {
     ema_ = options_.smoothing * ema_ + (1 - options_.smoothing) * velocity;
+    if (options_.noise_factor > 0) {
+      noise_ = options_.smoothing * noise_ + (1 - options_.smoothing) * std::fabs(deviation);
+    }
     pending_ = 0;
     o.verdict = Verdict::kNormal;
     o.ema = ema_;
@@ -116,6 +142,8 @@ Observation AnomalyMonitor::OnEvent(const std::string& kind) {
 void AnomalyMonitor::Reset() {
   initialised_ = false;
   ema_ = 0;
+  seen_ = 0;
+  noise_ = 0;
   pending_ = 0;
   pending_sign_ = 0;
 }
@@ -126,6 +154,8 @@ void AnomalyMonitor::Seed(double velocity) {
   }
   initialised_ = true;
   ema_ = velocity;
+  seen_ = 1;
+  noise_ = 0;
   pending_ = 0;
   pending_sign_ = 0;
 }

@@ -7,6 +7,16 @@
 // threshold. Physical changes the robot is told about (a module connected or
 // disconnected, a defect) are anomalies at once, without waiting for the
 // velocity to show them.
+//
+// Beyond the thesis, t has a noise floor: some gaits measure very unevenly
+// from window to window (the configured dog and wheel: 0 to 23 cm/s), and a
+// threshold relative to v alone alarms on them all the time. The first
+// learn_windows windows of a gait only learn v (their mean) and the window
+// noise d (their mean absolute deviation); from then on
+// t = max(threshold·max(|v|, min_reference), noise_factor·d), and d follows
+// the in-band windows with the same EMA as v. noise_factor = 0 is the
+// thesis's rule exactly (the first window initialises v, the next one may
+// alarm).
 #pragma once
 
 #include <set>
@@ -29,6 +39,11 @@ struct AnomalyOptions {
   /// A window faster than v + t is an anomaly too (by default it is only
   /// reported, and v takes the new value: the robot got better).
   bool increase_is_anomaly = false;
+  /// t is at least noise_factor times the window noise d (0: off, the
+  /// thesis's rule).
+  double noise_factor = 3;
+  /// Windows of a gait that only learn v and d (with noise_factor > 0).
+  int learn_windows = 4;
   /// Consecutive out-of-band windows needed before a change is reported
   /// (1: the thesis's rule, every such window). While fewer were seen the
   /// verdict is kSuspect and v is not updated.
@@ -40,12 +55,13 @@ struct AnomalyOptions {
 
 /// Checks `options` and throws yamor::Error kInvalidArgument naming the bad
 /// field (threshold <= 0 or not finite, smoothing outside [0, 1),
-/// min_reference < 0, confirmations < 1).
+/// min_reference < 0, noise_factor < 0, learn_windows < 1, confirmations < 1).
 void ValidateAnomalyOptions(const AnomalyOptions& options);
 
 /// What one observation meant.
 enum class Verdict {
   kInitialised,     ///< First window after a reset: v := v⁺.
+  kLearning,        ///< A learning window: v and the noise learned, never an anomaly.
   kNormal,          ///< Inside the band: v updated by the EMA rule.
   kSuspect,         ///< Outside the band, not yet confirmed; v kept.
   kIncrease,        ///< Faster than v + t (not an anomaly unless configured); v := v⁺.
@@ -89,7 +105,8 @@ class AnomalyMonitor {
 
   /// Forgets v: the next window initialises it.
   void Reset();
-  /// Sets v to a known velocity (a verified gait), as if initialised.
+  /// Sets v to a known velocity (a verified gait), as if a first window had
+  /// measured it (the noise is learned again).
   void Seed(double velocity);
 
   /// True once v holds a value.
@@ -98,6 +115,8 @@ class AnomalyMonitor {
   double ema() const { return ema_; }
   /// The absolute threshold for the current v [m/s].
   double Threshold() const;
+  /// The window noise d [m/s] (0 while unknown).
+  double noise() const { return noise_; }
   /// The options in use.
   const AnomalyOptions& options() const { return options_; }
 
@@ -105,6 +124,8 @@ class AnomalyMonitor {
   AnomalyOptions options_;
   bool initialised_ = false;
   double ema_ = 0;
+  int seen_ = 0;        // windows since the reset (or seed)
+  double noise_ = 0;    // mean absolute deviation of the windows from v
   int pending_ = 0;     // consecutive out-of-band windows not yet reported
   int pending_sign_ = 0;  // -1 below the band, +1 above
 };

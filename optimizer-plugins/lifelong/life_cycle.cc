@@ -284,7 +284,8 @@ void LifeCycle::Step() {
   const AccelReading accel = port_.ReadAccelerometer();
   if (accel.valid) last_accel_ = accel;
   const Observation o = monitor_.Observe(w.velocity);
-  const bool plain = o.verdict == Verdict::kNormal || o.verdict == Verdict::kInitialised;
+  const bool plain = o.verdict == Verdict::kNormal || o.verdict == Verdict::kInitialised ||
+                     o.verdict == Verdict::kLearning;
   Row(w.end_time, w.velocity, plain ? "" : VerdictName(o.verdict));
   if (o.verdict == Verdict::kInitialised && first_window_ != FirstWindow::kNothing) {
     if (first_window_ == FirstWindow::kRecordUse) {

@@ -134,6 +134,11 @@ int main(int argc, char** argv) {
   app.add_option("--absolute-threshold", absolute_threshold, "Anomaly threshold t in m/s (instead of relative)");
   app.add_flag("--relearn-on-increase", life.anomaly.increase_is_anomaly,
                "A velocity increase is an anomaly too (default: logged only)");
+  app.add_option("--noise-factor", life.anomaly.noise_factor,
+                 "Threshold at least this many times the window noise (0: the thesis's rule alone)")
+      ->capture_default_str();
+  app.add_option("--learn-windows", life.anomaly.learn_windows,
+                 "Windows of a gait that only learn its velocity and noise")->capture_default_str();
   app.add_option("--confirmations", life.anomaly.confirmations,
                  "Consecutive out-of-band windows before an anomaly")->capture_default_str();
   app.add_option("--window-periods", life.window_periods, "CPG periods per measurement window")

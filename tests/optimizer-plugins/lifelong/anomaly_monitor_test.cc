@@ -12,8 +12,11 @@
 namespace yamor::lifelong {
 namespace {
 
+// The thesis's rule exactly: no noise floor, the first window initialises.
+AnomalyOptions Thesis() { return AnomalyOptions{.noise_factor = 0}; }
+
 TEST(AnomalyMonitor, TheFirstWindowInitialises) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   EXPECT_FALSE(m.initialised());
   const Observation o = m.Observe(0.05);
   EXPECT_EQ(o.verdict, Verdict::kInitialised);
@@ -24,7 +27,7 @@ TEST(AnomalyMonitor, TheFirstWindowInitialises) {
 }
 
 TEST(AnomalyMonitor, InsideTheBandTheThesisEmaRuleApplies) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   m.Observe(0.05);
   const Observation o = m.Observe(0.056);  // |0.05 - 0.056| = 0.006 < 0.015
   EXPECT_EQ(o.verdict, Verdict::kNormal);
@@ -34,7 +37,7 @@ TEST(AnomalyMonitor, InsideTheBandTheThesisEmaRuleApplies) {
 }
 
 TEST(AnomalyMonitor, ADropBeyondTheThresholdIsAnAnomalyAndKeepsTheExpectation) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   m.Observe(0.05);
   const Observation o = m.Observe(0.03);  // 0.02 >= 0.015
   EXPECT_EQ(o.verdict, Verdict::kDrop);
@@ -47,13 +50,13 @@ TEST(AnomalyMonitor, ADropBeyondTheThresholdIsAnAnomalyAndKeepsTheExpectation) {
 TEST(AnomalyMonitor, ExactlyTheThresholdIsOutsideTheBand) {
   // The rule is |v - v+| < t; equality is an anomaly. Absolute threshold so
   // the numbers are exact in binary.
-  AnomalyMonitor m({.threshold = 0.25, .relative = false});
+  AnomalyMonitor m({.threshold = 0.25, .relative = false, .noise_factor = 0});
   m.Observe(1.0);
   EXPECT_EQ(m.Observe(0.75).verdict, Verdict::kDrop);
 }
 
 TEST(AnomalyMonitor, AnIncreaseIsReportedNotAnAnomalyAndBecomesTheExpectation) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   m.Observe(0.05);
   const Observation o = m.Observe(0.08);
   EXPECT_EQ(o.verdict, Verdict::kIncrease);
@@ -64,7 +67,7 @@ TEST(AnomalyMonitor, AnIncreaseIsReportedNotAnAnomalyAndBecomesTheExpectation) {
 }
 
 TEST(AnomalyMonitor, AnIncreaseIsAnAnomalyWhenConfigured) {
-  AnomalyMonitor m({.increase_is_anomaly = true});
+  AnomalyMonitor m({.increase_is_anomaly = true, .noise_factor = 0});
   m.Observe(0.05);
   const Observation o = m.Observe(0.08);
   EXPECT_EQ(o.verdict, Verdict::kIncreaseAnomaly);
@@ -73,7 +76,7 @@ TEST(AnomalyMonitor, AnIncreaseIsAnAnomalyWhenConfigured) {
 }
 
 TEST(AnomalyMonitor, AnAbsoluteThresholdDoesNotScaleWithTheVelocity) {
-  AnomalyMonitor m({.threshold = 0.01, .relative = false});
+  AnomalyMonitor m({.threshold = 0.01, .relative = false, .noise_factor = 0});
   m.Observe(0.2);
   EXPECT_DOUBLE_EQ(m.Threshold(), 0.01);
   EXPECT_EQ(m.Observe(0.195).verdict, Verdict::kNormal);
@@ -81,7 +84,7 @@ TEST(AnomalyMonitor, AnAbsoluteThresholdDoesNotScaleWithTheVelocity) {
 }
 
 TEST(AnomalyMonitor, ARelativeThresholdHasAFloorForARobotThatBarelyMoves) {
-  AnomalyMonitor m({.threshold = 0.3, .min_reference = 0.01});
+  AnomalyMonitor m({.threshold = 0.3, .min_reference = 0.01, .noise_factor = 0});
   m.Observe(0.0001);
   EXPECT_DOUBLE_EQ(m.Threshold(), 0.003);
   EXPECT_EQ(m.Observe(0.002).verdict, Verdict::kNormal);
@@ -89,7 +92,7 @@ TEST(AnomalyMonitor, ARelativeThresholdHasAFloorForARobotThatBarelyMoves) {
 }
 
 TEST(AnomalyMonitor, ConfirmationsNeedConsecutiveWindowsOnTheSameSide) {
-  AnomalyMonitor m({.confirmations = 2});
+  AnomalyMonitor m({.noise_factor = 0, .confirmations = 2});
   m.Observe(0.05);
   EXPECT_EQ(m.Observe(0.02).verdict, Verdict::kSuspect);
   EXPECT_DOUBLE_EQ(m.ema(), 0.05);                      // not updated while suspect
@@ -101,7 +104,7 @@ TEST(AnomalyMonitor, ConfirmationsNeedConsecutiveWindowsOnTheSameSide) {
 }
 
 TEST(AnomalyMonitor, PhysicalChangeEventsAreAnomaliesAtOnce) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   // Even before any window.
   Observation o = m.OnEvent("module_disconnected");
   EXPECT_EQ(o.verdict, Verdict::kPhysicalChange);
@@ -124,7 +127,7 @@ TEST(AnomalyMonitor, ThePhysicalEventKindsAreConfigurable) {
 }
 
 TEST(AnomalyMonitor, ResetAndSeed) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   m.Observe(0.05);
   m.Reset();
   EXPECT_FALSE(m.initialised());
@@ -136,7 +139,7 @@ TEST(AnomalyMonitor, ResetAndSeed) {
 }
 
 TEST(AnomalyMonitor, BadInputIsRefused) {
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   EXPECT_THROW(m.Observe(std::numeric_limits<double>::quiet_NaN()), Error);
   EXPECT_THROW(m.Observe(std::numeric_limits<double>::infinity()), Error);
   EXPECT_THROW(m.Seed(std::numeric_limits<double>::quiet_NaN()), Error);
@@ -145,7 +148,8 @@ TEST(AnomalyMonitor, BadInputIsRefused) {
        {AnomalyOptions{.threshold = 0}, AnomalyOptions{.threshold = -1},
         AnomalyOptions{.threshold = std::numeric_limits<double>::infinity()},
         AnomalyOptions{.min_reference = -0.1}, AnomalyOptions{.smoothing = 1},
-        AnomalyOptions{.smoothing = -0.1}, AnomalyOptions{.confirmations = 0}}) {
+        AnomalyOptions{.smoothing = -0.1}, AnomalyOptions{.noise_factor = -1},
+        AnomalyOptions{.learn_windows = 0}, AnomalyOptions{.confirmations = 0}}) {
     try {
       AnomalyMonitor refused(bad);
       ADD_FAILURE() << "accepted";
@@ -169,7 +173,7 @@ TEST(AnomalyMonitor, NoFalseAlarmOnNoisyUndisturbedWalking) {
   // 5 % noise per window is about 6 standard deviations inside the default
   // 30 % band: no alarm in 10 seeds of 1000 windows.
   for (unsigned seed = 1; seed <= 10; ++seed) {
-    AnomalyMonitor m;
+    AnomalyMonitor m(Thesis());
     for (double v : Noisy(0.05, 0.05, 1000, seed)) {
       const Observation o = m.Observe(v);
       ASSERT_FALSE(IsAnomaly(o.verdict)) << "seed " << seed << " v " << v << " ema " << o.before;
@@ -181,7 +185,7 @@ TEST(AnomalyMonitor, NoFalseAlarmOnNoisyUndisturbedWalking) {
 
 TEST(AnomalyMonitor, ASuddenHalvingIsDetectedInTheFirstWindowAfterIt) {
   for (unsigned seed = 1; seed <= 10; ++seed) {
-    AnomalyMonitor m;
+    AnomalyMonitor m(Thesis());
     std::vector<double> series = Noisy(0.05, 0.05, 30, seed);
     const std::vector<double> after = Noisy(0.025, 0.05, 5, seed + 100);
     series.insert(series.end(), after.begin(), after.end());
@@ -198,12 +202,48 @@ TEST(AnomalyMonitor, ASuddenHalvingIsDetectedInTheFirstWindowAfterIt) {
 
 TEST(AnomalyMonitor, ASlowDriftIsFollowedNotAlarmed) {
   // The thesis's point of the EMA: small variations along the robot's life.
-  AnomalyMonitor m;
+  AnomalyMonitor m(Thesis());
   double v = 0.05;
   for (int i = 0; i < 200; ++i, v *= 0.995) {
     ASSERT_FALSE(IsAnomaly(m.Observe(v).verdict)) << "window " << i;
   }
   EXPECT_LT(m.ema(), 0.025);
+}
+
+TEST(AnomalyMonitor, ByDefaultTheFirstWindowsLearnTheLevelAndTheNoise) {
+  AnomalyMonitor m;  // noise_factor 3, learn_windows 4
+  EXPECT_EQ(m.Observe(0.10).verdict, Verdict::kInitialised);
+  EXPECT_EQ(m.Observe(0.02).verdict, Verdict::kLearning);  // no alarm while learning
+  EXPECT_EQ(m.Observe(0.12).verdict, Verdict::kLearning);
+  EXPECT_EQ(m.Observe(0.04).verdict, Verdict::kLearning);
+  EXPECT_NEAR(m.ema(), 0.07, 1e-12);  // the mean of the four
+  // |deviation| from the running mean before each window: 0.08, 0.06, 0.04.
+  EXPECT_NEAR(m.noise(), 0.06, 1e-12);
+  EXPECT_NEAR(m.Threshold(), 3 * m.noise(), 1e-12);
+  EXPECT_EQ(m.Observe(0.03).verdict, Verdict::kNormal);  // inside 3 d, though > 30 % off
+  EXPECT_EQ(m.Observe(-0.15).verdict, Verdict::kDrop);
+}
+
+TEST(AnomalyMonitor, ASteadyGaitKeepsTheRelativeThreshold) {
+  AnomalyMonitor m;
+  for (double v : {0.080, 0.082, 0.079, 0.081}) m.Observe(v);
+  EXPECT_NEAR(m.Threshold(), 0.3 * 0.0805, 1e-9);
+  EXPECT_EQ(m.Observe(0.05).verdict, Verdict::kDrop);
+}
+
+TEST(AnomalyMonitor, AnErraticGaitRaisesNoFalseAlarm) {
+  // Window velocities like the configured wheel's (cm/s), over and over.
+  const std::vector<double> wheel = {13.19, 4.22, 16.35, 4.34, 9.79, 17.60, 12.72, 14.49, 11.96, 21.61,
+                                     3.97, 21.15, 20.28, 21.90, 13.69, 4.47, 5.94, 20.47, 13.43, 13.51,
+                                     12.80, 13.95, 21.38, 1.24, 10.81, 20.30, 5.04, 15.21, 3.73, 13.27};
+  AnomalyMonitor m;
+  for (int round = 0; round < 10; ++round) {
+    for (double v : wheel) ASSERT_FALSE(IsAnomaly(m.Observe(v / 100).verdict)) << round << " " << v;
+  }
+  // The thesis's rule alone alarms at once.
+  AnomalyMonitor thesis(Thesis());
+  thesis.Observe(wheel[0] / 100);
+  EXPECT_TRUE(IsAnomaly(thesis.Observe(wheel[1] / 100).verdict));
 }
 
 }  // namespace
