@@ -174,51 +174,55 @@ void AddCoupling(cpg::RobotConfig& config, int from, int to, double phase, doubl
                                              .weight = weight});
 }
 
-void ApplyParameters(cpg::RobotConfig& config,
-                     const std::vector<std::pair<std::string, double>>& parameters) {
+ParameterName ParseParameterName(std::string_view name) {
   static constexpr std::pair<std::string_view, ModuleField> kModuleFields[] = {
       {"amplitude", ModuleField::kAmplitude}, {"offset", ModuleField::kOffset},
       {"speed", ModuleField::kSpeed},         {"minangle", ModuleField::kMinAngle},
       {"maxangle", ModuleField::kMaxAngle}};
+  const std::size_t dot = name.find('.');
+  const std::string_view kind = name.substr(0, dot);
+  const std::string_view ids = dot == std::string_view::npos ? std::string_view() : name.substr(dot + 1);
+  for (const auto& [field_name, field] : kModuleFields) {
+    if (kind != field_name) continue;
+    ParameterName parsed{.module_field = field};
+    if (!ParseId(ids, parsed.id)) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "expected " + std::string(field_name) + ".<module id 0..254>");
+    }
+    return parsed;
+  }
+  if (kind == "phase" || kind == "weight") {
+    ParameterName parsed{.coupling = true,
+                         .coupling_field = kind == "phase" ? CouplingField::kPhase
+                                                           : CouplingField::kWeight};
+    const std::size_t dot2 = ids.find('.');
+    if (dot2 == std::string_view::npos || !ParseId(ids.substr(0, dot2), parsed.from) ||
+        !ParseId(ids.substr(dot2 + 1), parsed.to)) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "expected " + std::string(kind) + ".<from id>.<to id>");
+    }
+    return parsed;
+  }
+  throw Error(StatusCode::kInvalidArgument,
+              "unknown parameter; expected amplitude.<id>, offset.<id>, speed.<id>, "
+              "minangle.<id>, maxangle.<id>, phase.<from>.<to> or weight.<from>.<to>");
+}
+
+void ApplyParameters(cpg::RobotConfig& config,
+                     const std::vector<std::pair<std::string, double>>& parameters) {
   std::map<int, std::string> limit_parameter;  // module -> last limit parameter applied
   for (const auto& [name, value] : parameters) {
     const std::string prefix = "parameter '" + name + "': ";
     try {
-      const std::size_t dot = name.find('.');
-      const std::string_view kind = std::string_view(name).substr(0, dot);
-      const std::string_view ids =
-          dot == std::string::npos ? std::string_view() : std::string_view(name).substr(dot + 1);
-      bool done = false;
-      for (const auto& [field_name, field] : kModuleFields) {
-        if (kind != field_name) continue;
-        int id = 0;
-        if (!ParseId(ids, id)) {
-          throw Error(StatusCode::kInvalidArgument,
-                      "expected " + std::string(field_name) + ".<module id 0..254>");
+      const ParameterName parsed = ParseParameterName(name);
+      if (parsed.coupling) {
+        SetCouplingField(config, parsed.from, parsed.to, parsed.coupling_field, value);
+      } else {
+        SetModuleField(config, parsed.id, parsed.module_field, value, /*check_order=*/false);
+        if (parsed.module_field == ModuleField::kMinAngle ||
+            parsed.module_field == ModuleField::kMaxAngle) {
+          limit_parameter[parsed.id] = name;
         }
-        SetModuleField(config, id, field, value, /*check_order=*/false);
-        if (field == ModuleField::kMinAngle || field == ModuleField::kMaxAngle) {
-          limit_parameter[id] = name;
-        }
-        done = true;
-      }
-      if (!done && (kind == "phase" || kind == "weight")) {
-        const std::size_t dot2 = ids.find('.');
-        int from = 0;
-        int to = 0;
-        if (dot2 == std::string_view::npos || !ParseId(ids.substr(0, dot2), from) ||
-            !ParseId(ids.substr(dot2 + 1), to)) {
-          throw Error(StatusCode::kInvalidArgument,
-                      "expected " + std::string(kind) + ".<from id>.<to id>");
-        }
-        SetCouplingField(config, from, to,
-                         kind == "phase" ? CouplingField::kPhase : CouplingField::kWeight, value);
-        done = true;
-      }
-      if (!done) {
-        throw Error(StatusCode::kInvalidArgument,
-                    "unknown parameter; expected amplitude.<id>, offset.<id>, speed.<id>, "
-                    "minangle.<id>, maxangle.<id>, phase.<from>.<to> or weight.<from>.<to>");
       }
     } catch (const Error& e) {
       throw Error(e.code(), prefix + e.what());

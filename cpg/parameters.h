@@ -56,6 +56,21 @@ void SetCouplingField(cpg::RobotConfig& config, int from, int to, CouplingField 
 /// INVALID_ARGUMENT self-coupling or NaN/inf, OUT_OF_RANGE as above.
 void AddCoupling(cpg::RobotConfig& config, int from, int to, double phase, double weight);
 
+/// A parsed parameter name (DESIGN.md): a module field or a coupling field.
+struct ParameterName {
+  bool coupling = false;  ///< phase/weight of a coupling rather than a module field.
+  ModuleField module_field = ModuleField::kAmplitude;    ///< The field, when !coupling.
+  CouplingField coupling_field = CouplingField::kPhase;  ///< The field, when coupling.
+  int id = 0;    ///< The module, when !coupling.
+  int from = 0;  ///< The coupling's module whose equation holds the term, when coupling.
+  int to = 0;    ///< The coupling's driving module, when coupling.
+};
+
+/// Parses "amplitude.3", "offset.3", "speed.3", "minangle.3", "maxangle.3",
+/// "phase.2.5" or "weight.2.5" (ids 0..254). Throws INVALID_ARGUMENT saying
+/// what was expected (the caller names the parameter). Pure.
+ParameterName ParseParameterName(std::string_view name);
+
 /// Applies named parameter values in order (min < max is checked after all
 /// of them). Errors name the parameter: INVALID_ARGUMENT for a malformed or
 /// unknown name ("unknown parameter 'foo.3'") or NaN/inf, NOT_FOUND for an

@@ -50,15 +50,6 @@ double SecondsSince(Clock::time_point t) {
   throw Error(StatusCode::kUnavailable, std::string(what) + " interrupted: yamord is shutting down");
 }
 
-snp::MotorFault ToFault(MotorDefect defect) {
-  switch (defect) {
-    case MotorDefect::kLimp: return snp::MotorFault::kLimp;
-    case MotorDefect::kStuck: return snp::MotorFault::kStuck;
-    case MotorDefect::kNone: break;
-  }
-  return snp::MotorFault::kNone;
-}
-
 std::string_view DefectName(MotorDefect defect) {
   switch (defect) {
     case MotorDefect::kLimp: return "limp";
@@ -943,7 +934,16 @@ void RobotDriver::SetModuleDefect(int id, bool defective) {
                        .detail = "module"});
 }
 
-void RobotDriver::SetGround(const GroundChange& change) {
+snp::MotorFault ToFault(MotorDefect defect) {
+  switch (defect) {
+    case MotorDefect::kLimp: return snp::MotorFault::kLimp;
+    case MotorDefect::kStuck: return snp::MotorFault::kStuck;
+    case MotorDefect::kNone: break;
+  }
+  return snp::MotorFault::kNone;
+}
+
+void CheckGroundValues(const GroundChange& change) {
   auto check_finite = [](const std::optional<double>& v, std::string_view what) {
     if (v && !std::isfinite(*v)) {
       throw Error(StatusCode::kInvalidArgument, std::string(what) + " is not finite: " + FormatRounded(*v));
@@ -959,6 +959,10 @@ void RobotDriver::SetGround(const GroundChange& change) {
   if (change.slope && !(*change.slope >= 0.0 && *change.slope < M_PI / 2)) {
     throw Error(StatusCode::kOutOfRange, "slope " + FormatRounded(*change.slope) + " rad is outside [0, pi/2)");
   }
+}
+
+void RobotDriver::SetGround(const GroundChange& change) {
+  CheckGroundValues(change);
   if (!change.friction && !change.slope && !change.slope_direction) {
     throw Error(StatusCode::kInvalidArgument,
                 "ground change without friction, slope or slope direction");

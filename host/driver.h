@@ -121,12 +121,20 @@ enum class MotorDefect {
   kStuck,  ///< Locked at its angle.
 };
 
+/// The SNP SetMotorFault value of `defect`.
+snp::MotorFault ToFault(MotorDefect defect);
+
 /// A ground change; absent fields keep their value.
 struct GroundChange {
   std::optional<double> friction;         ///< Coulomb coefficient (> 0).
   std::optional<double> slope;            ///< [rad] in [0, π/2).
   std::optional<double> slope_direction;  ///< Downhill azimuth [rad].
 };
+
+/// Checks a ground change's values before they reach the world:
+/// INVALID_ARGUMENT for NaN/inf, OUT_OF_RANGE for friction outside (0, 100]
+/// or slope outside [0, π/2). Absent fields pass. Pure.
+void CheckGroundValues(const GroundChange& change);
 
 /// One accelerometer sample.
 struct AccelerometerSample {

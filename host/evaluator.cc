@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
 #include <sstream>
 
 #include "common/format.h"
@@ -63,6 +64,27 @@ class EvaluationRobot {
       divergence = d.reason + " at t = " + FormatRounded(d.time) + " s";
       return false;
     }
+  }
+
+  // The robot's condition, through the bridge specials the driver uses.
+  void SetGround(const GroundChange& ground) {
+    link_.BridgeRequest(snp::SetGround{.friction = ground.friction,
+                                       .slope = ground.slope,
+                                       .slope_direction = ground.slope_direction},
+                        snp::MessageType::kGround);
+  }
+  void SetMotorDefect(int id, MotorDefect defect) {
+    // As RobotDriver::SetMotorDefect on a connected robot: motor off, then the fault.
+    link_.ModuleCall(id, snp::Control{.motors = snp::Tristate::kOff}, snp::MessageType::kAck);
+    link_.BridgeRequest(snp::SetMotorFault{.module = static_cast<uint8_t>(id), .fault = ToFault(defect)},
+                        snp::MessageType::kSpecialAck);
+  }
+  void SetModuleDefect(int id) {
+    link_.BridgeRequest(snp::SetModuleDefect{.module = static_cast<uint8_t>(id), .defective = true},
+                        snp::MessageType::kSpecialAck);
+  }
+  void TurnUpsideDown() {
+    link_.BridgeRequest(snp::TurnUpsideDown{}, snp::MessageType::kSpecialAck);
   }
 
   RobotPose Position() {
@@ -132,11 +154,46 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     }
   }
 
+  // The condition is checked whole before any world exists.
+  std::set<int> motor_defect_ids;
+  for (const auto& [id, defect] : spec.motor_defects) {
+    if (config.FindModule(id) == nullptr) {
+      throw Error(StatusCode::kNotFound,
+                  "motor defect: module " + std::to_string(id) + " is not in the configuration");
+    }
+    if (!motor_defect_ids.insert(id).second) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "motor defect: module " + std::to_string(id) + " is listed twice");
+    }
+  }
+  std::set<int> module_defect_ids;
+  for (const auto& [id, defective] : spec.module_defects) {
+    if (id < 0 || id > cpg::kMaxModuleId || !spec.morphology.Contains(spec.id_map.ToSim(id))) {
+      throw Error(StatusCode::kNotFound, "module defect: module " + std::to_string(id) +
+                                             " is not in world " + spec.morphology.source());
+    }
+    if (!module_defect_ids.insert(id).second) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "module defect: module " + std::to_string(id) + " is listed twice");
+    }
+  }
+  CheckGroundValues(spec.ground);
+
   const SimulationOptions options{.time_step = time_step,
                                   .seed = spec.seed,
                                   .master = spec.id_map.ToSim(config.master_id)};
   EvaluationRobot robot(spec.morphology, options, spec.id_map);
   robot.Configure(config);
+  if (spec.ground.friction || spec.ground.slope || spec.ground.slope_direction) {
+    robot.SetGround(spec.ground);
+  }
+  for (const auto& [id, defect] : spec.motor_defects) {
+    if (defect != MotorDefect::kNone) robot.SetMotorDefect(id, defect);
+  }
+  for (const auto& [id, defective] : spec.module_defects) {
+    if (defective) robot.SetModuleDefect(id);
+  }
+  if (spec.upside_down) robot.TurnUpsideDown();
 
   EvaluationResult result;
   const int64_t chunk = std::max<int64_t>(1, steps_of(kChunk));

@@ -41,6 +41,15 @@ struct EvaluationSpec {
   uint64_t seed = 0;                   ///< World and oscillator seed.
   double trajectory_period = 0.0;      ///< > 0: sample the trajectory every period [s].
   double time_step = 0.0;              ///< Physics step [s]; 0 = default.
+  // The robot's condition at t = 0 (issue 13 "model" mode), real ids.
+  /// Motor defects: each module's motor is switched off and faulted, as
+  /// RobotDriver::SetMotorDefect on a connected robot; kNone entries are skipped.
+  std::vector<std::pair<int, MotorDefect>> motor_defects;
+  /// Module defects (oscillator dead, motor limp; SetModuleDefect) as
+  /// (module, defective); `false` entries are checked and change nothing.
+  std::vector<std::pair<int, bool>> module_defects;
+  GroundChange ground;       ///< Ground friction and slope; absent: the world's.
+  bool upside_down = false;  ///< Turned upside down at t = 0 (TurnUpsideDown).
 };
 
 /// A trajectory sample.
@@ -63,7 +72,11 @@ struct EvaluationResult {
 /// Runs one evaluation on the calling thread. Deterministic: the same spec
 /// gives bit-identical results on the same build. Errors: the parameter
 /// errors of ApplyParameters, INVALID_ARGUMENT for configuration modules
-/// missing from the world, OUT_OF_RANGE for bad timings, CANCELLED when
+/// missing from the world, OUT_OF_RANGE for bad timings; for the condition
+/// fields NOT_FOUND naming a motor-defect module not in the configuration or
+/// a module-defect module not in the world, INVALID_ARGUMENT for a module
+/// listed twice, CheckGroundValues' errors (all checked before the world is
+/// built); CANCELLED when
 /// `cancel` fires (checked between 0.1 s chunks of simulated time).
 /// Thread-safe: evaluations share nothing.
 EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& cancel);

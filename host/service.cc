@@ -52,6 +52,25 @@ snp::Connector ToConnector(v1::ConnectorName value, std::string_view what) {
   return static_cast<snp::Connector>(v);
 }
 
+MotorDefect ToMotorDefect(v1::MotorDefect value) {
+  switch (value) {
+    case v1::MOTOR_OK: return MotorDefect::kNone;
+    case v1::MOTOR_LIMP: return MotorDefect::kLimp;
+    case v1::MOTOR_STUCK: return MotorDefect::kStuck;
+    default: break;
+  }
+  throw Error(StatusCode::kInvalidArgument, "motor defect " + std::to_string(static_cast<int>(value)) +
+                                                " is not MOTOR_OK, MOTOR_LIMP or MOTOR_STUCK");
+}
+
+GroundChange ToGroundChange(const v1::SetGroundRequest& request) {
+  GroundChange change;
+  if (request.has_friction()) change.friction = request.friction();
+  if (request.has_slope()) change.slope = request.slope();
+  if (request.has_slope_direction()) change.slope_direction = request.slope_direction();
+  return change;
+}
+
 void SetPose(const RobotPose& pose, v1::Pose* out) {
   out->mutable_position()->set_x(pose.position[0]);
   out->mutable_position()->set_y(pose.position[1]);
@@ -383,17 +402,7 @@ grpc::Status HostServiceImpl::RunTransformationScript(
 grpc::Status HostServiceImpl::SetMotorDefect(grpc::ServerContext* context,
                                              const v1::SetMotorDefectRequest* request, Empty*) {
   return Serve(context, "SetMotorDefect", [&] {
-    MotorDefect defect = MotorDefect::kNone;
-    switch (request->defect()) {
-      case v1::MOTOR_OK: defect = MotorDefect::kNone; break;
-      case v1::MOTOR_LIMP: defect = MotorDefect::kLimp; break;
-      case v1::MOTOR_STUCK: defect = MotorDefect::kStuck; break;
-      default:
-        throw Error(StatusCode::kInvalidArgument,
-                    "motor defect " + std::to_string(static_cast<int>(request->defect())) +
-                        " is not MOTOR_OK, MOTOR_LIMP or MOTOR_STUCK");
-    }
-    driver_.SetMotorDefect(ModuleId(request->module_id()), defect);
+    driver_.SetMotorDefect(ModuleId(request->module_id()), ToMotorDefect(request->defect()));
   });
 }
 
@@ -407,11 +416,7 @@ grpc::Status HostServiceImpl::SetModuleDefect(grpc::ServerContext* context,
 grpc::Status HostServiceImpl::SetGround(grpc::ServerContext* context,
                                         const v1::SetGroundRequest* request, Empty*) {
   return Serve(context, "SetGround", [&] {
-    GroundChange change;
-    if (request->has_friction()) change.friction = request->friction();
-    if (request->has_slope()) change.slope = request->slope();
-    if (request->has_slope_direction()) change.slope_direction = request->slope_direction();
-    driver_.SetGround(change);
+    driver_.SetGround(ToGroundChange(*request));
   });
 }
 
@@ -567,6 +572,14 @@ grpc::Status HostServiceImpl::Evaluate(grpc::ServerContext* context,
     for (const v1::ParameterValue& p : request->parameters()) {
       spec.parameters.emplace_back(p.name(), p.value());
     }
+    for (const v1::SetMotorDefectRequest& d : request->motor_defects()) {
+      spec.motor_defects.emplace_back(ModuleId(d.module_id()), ToMotorDefect(d.defect()));
+    }
+    for (const v1::SetModuleDefectRequest& d : request->module_defects()) {
+      spec.module_defects.emplace_back(ModuleId(d.module_id()), d.defective());
+    }
+    if (request->has_ground()) spec.ground = ToGroundChange(request->ground());
+    spec.upside_down = request->upside_down();
     const CancelCheck cancel = [this, context] {
       return context->IsCancelled() || stopping_.load() || pool_.stopping();
     };

@@ -1,5 +1,6 @@
 // yamor-optimize: runs an optimizer plugin against a pool of yamord hosts
-// (thesis 5.7, appendix D). See `yamor-optimize --help` and docs/optimizers.md.
+// (thesis 5.7, appendix D), or online on one live robot (--live, thesis 6.3).
+// See `yamor-optimize --help` and docs/optimizers.md.
 #include <unistd.h>
 
 #include <atomic>
@@ -26,6 +27,7 @@
 #include "common/log.h"
 #include "common/status.h"
 #include "optimizer-plugins/framework/host_pool.h"
+#include "optimizer-plugins/framework/live_evaluator.h"
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/plugin_loader.h"
 #include "optimizer-plugins/framework/progress.h"
@@ -86,8 +88,10 @@ int ListPlugins(const std::vector<std::string>& dirs) {
   return 0;
 }
 
-// One progress line over every running instance.
-std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, double elapsed) {
+// One progress line over every running instance (with the robot time of a
+// live run).
+std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, double elapsed,
+                         const LiveEvaluator* live) {
   long long done = 0, budget = 0;
   bool has_best = false;
   double best = 0.0;
@@ -109,6 +113,7 @@ std::string ProgressLine(const std::vector<std::unique_ptr<Session>>& sessions, 
   char rate_text[32];
   std::snprintf(rate_text, sizeof(rate_text), "%.2f", rate);
   line << " | " << rate_text << " eval/s | elapsed " << FormatDuration(elapsed);
+  if (live != nullptr) line << " | robot time " << FormatDuration(live->RobotSeconds());
   if (const std::string left = RemainingEstimate(done, budget, elapsed); !left.empty()) {
     line << " | " << left;
   }
@@ -131,7 +136,8 @@ void DrawProgress(const std::string& out_dir, const std::string& title) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "yamor-optimize: learns gaits by running an optimizer plugin over a pool of yamord hosts.\n"
+      "yamor-optimize: learns gaits by running an optimizer plugin over a pool of yamord hosts,\n"
+      "or online on the robot of one yamord (--live).\n"
       "Example: yamor-optimize --plugin powell --config configs/optimize/quadruped-7.xml "
       "--world quadruped --hosts 127.0.0.1:2224 --out results/run1"};
   std::string plugin_name, config_path, hosts_spec = "127.0.0.1:2224", out_dir, batch_path;
@@ -139,6 +145,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> sets, plugin_dirs;
   std::uint64_t seed = 1, eval_seed = 0;
   double warmup = 8.0, duration = 12.0, time_step = 0.0, give_up_after = 120.0;
+  std::string live_spec;
+  LiveOptions live_options;
   bool list_plugins = false, no_plot = false, quiet = false;
   app.add_flag("--list-plugins", list_plugins, "List the plugins found and their fields, then exit");
   app.add_option("--plugin", plugin_name, "Plugin name (NAME.so in the plugin folders) or path to a .so");
@@ -157,6 +165,15 @@ int main(int argc, char** argv) {
   app.add_option("--time-step", time_step, "Physics step [s]; 0 = the daemon's default")->capture_default_str();
   app.add_option("--give-up-after", give_up_after,
                  "Fail when no host is reachable for this long while work waits [s]")->capture_default_str();
+  app.add_option("--live", live_spec,
+                 "Optimize online on the robot of one yamord HOST:PORT (thesis 6.3) instead of "
+                 "simulating candidates on --hosts; see docs/optimizers.md");
+  app.add_option("--live-settle-periods", live_options.settle_periods,
+                 "--live: CPG periods a candidate runs before it is measured")->capture_default_str();
+  app.add_option("--live-measure-periods", live_options.measure_periods,
+                 "--live: CPG periods measured (thesis 7.3)")->capture_default_str();
+  app.add_option("--live-sample-interval", live_options.sample_interval,
+                 "--live: robot seconds between position samples")->capture_default_str();
   app.add_option("--out", out_dir, "Results folder (evaluations.csv, best.xml, summary.json, progress.png)");
   app.add_flag("--no-plot", no_plot, "Do not draw progress.png");
   app.add_flag("--quiet", quiet, "No progress line");
@@ -182,6 +199,26 @@ int main(int argc, char** argv) {
         throw Error(StatusCode::kInvalidArgument, "--set " + kv + ": expected KEY=VALUE");
       }
       set[kv.substr(0, eq)] = kv.substr(eq + 1);
+    }
+
+    const bool live = app.count("--live") > 0;
+    if (live) {
+      // Options of simulated evaluations would be silently ignored on a robot.
+      for (const char* flag : {"--hosts", "--world", "--morphology", "--batch", "--warmup",
+                               "--duration", "--time-step", "--eval-seed", "--give-up-after"}) {
+        if (app.count(flag) > 0) {
+          throw Error(StatusCode::kInvalidArgument,
+                      std::string(flag) + " cannot be combined with --live: --live evaluates on "
+                                          "the daemon's robot as it is (see docs/optimizers.md)");
+        }
+      }
+    } else {
+      for (const char* flag : {"--live-settle-periods", "--live-measure-periods",
+                               "--live-sample-interval"}) {
+        if (app.count(flag) > 0) {
+          throw Error(StatusCode::kInvalidArgument, std::string(flag) + " needs --live HOST:PORT");
+        }
+      }
     }
 
     const LoadedPlugin plugin = LoadedPlugin::Load(FindPlugin(plugin_name, dirs));
@@ -211,30 +248,57 @@ int main(int argc, char** argv) {
     settings.time_step = time_step;
     PoolOptions pool_options;
     pool_options.give_up_after = give_up_after;
-    const std::vector<HostAddress> hosts = ParseHosts(hosts_spec);
-    std::string host_list;
-    for (const auto& h : hosts) host_list += (host_list.empty() ? "" : ",") + h.ToString();
+
+    // The evaluator: a pool of simulating hosts, or one live robot.
+    std::unique_ptr<HostPool> pool;
+    std::unique_ptr<LiveEvaluator> live_evaluator;
+    Evaluator* evaluator = nullptr;
+    std::string evaluator_description;
+    std::string evaluator_line;
+    if (live) {
+      const std::vector<HostAddress> address = ParseHosts(live_spec);
+      if (address.size() != 1) {
+        throw Error(StatusCode::kInvalidArgument, "--live takes one HOST:PORT, got " + live_spec);
+      }
+      // The optimization configuration's robot becomes the robot's: loaded,
+      // connected (or refreshed) and switched on before the first trial.
+      const LivePreparation prepared = PrepareLiveRobot(address[0], config.RobotXml(), config_path);
+      live_evaluator = std::make_unique<LiveEvaluator>(address[0], live_options);
+      evaluator = live_evaluator.get();
+      evaluator_description = "live " + address[0].ToString();
+      evaluator_line = "live robot " + address[0].ToString() + " (" + prepared.backend + ", " +
+                       (live_evaluator->Simulated() ? "virtual time" : "real time") + ", " +
+                       (prepared.connected_now ? "connected now" : "already connected") + ")";
+    } else {
+      const std::vector<HostAddress> hosts = ParseHosts(hosts_spec);
+      for (const auto& h : hosts) {
+        evaluator_description += (evaluator_description.empty() ? "" : ",") + h.ToString();
+      }
+      pool = std::make_unique<HostPool>(hosts, settings, pool_options);
+      evaluator = pool.get();
+      int up = 0;
+      for (const auto& status : pool->Status()) up += status.up ? 1 : 0;
+      evaluator_line = std::to_string(up) + "/" + std::to_string(hosts.size()) +
+                       " hosts up (capacity " + std::to_string(pool->Capacity()) + ")";
+    }
 
     // Field values are validated for every instance before any host works.
     std::vector<std::unique_ptr<Session>> sessions;
     std::vector<std::string> instance_dirs;
-    HostPool pool(hosts, settings, pool_options);
     for (const BatchInstance& instance : instances) {
       std::map<std::string, std::string> instance_set = set;
       for (const auto& [k, v] : instance.set) instance_set[k] = v;
       const std::string dir = batch_path.empty() ? out_dir : (fs::path(out_dir) / instance.name).string();
       instance_dirs.push_back(dir);
       sessions.push_back(std::make_unique<Session>(
-          plugin, problem, pool,
+          plugin, problem, *evaluator,
           SessionOptions{.label = instance.name, .seed = instance.seed, .set = instance_set,
-                         .out_dir = dir, .evaluator_description = host_list}));
+                         .out_dir = dir, .evaluator_description = evaluator_description,
+                         .live = live}));
     }
-    int up = 0;
-    for (const auto& s : pool.Status()) up += s.up ? 1 : 0;
     std::cerr << "yamor-optimize: " << plugin.name() << " " << plugin.version() << " on "
-              << config.optimized().size() << " parameters of " << config_path << "; " << up << "/"
-              << hosts.size() << " hosts up (capacity " << pool.Capacity() << "); results in " << out_dir
-              << "\n";
+              << config.optimized().size() << " parameters of " << config_path << "; "
+              << evaluator_line << "; results in " << out_dir << "\n";
 
     std::signal(SIGINT, OnSignal);
     std::signal(SIGTERM, OnSignal);
@@ -258,12 +322,12 @@ int main(int argc, char** argv) {
         stopping = true;
         std::cerr << (tty ? "\n" : "") << "yamor-optimize: stopping (results so far are kept)\n";
         for (auto& s : sessions) s->RequestStop();
-        pool.RequestStop();
+        evaluator->RequestStop();
       }
       const auto now = std::chrono::steady_clock::now();
       const double elapsed = std::chrono::duration<double>(now - start).count();
       if (!quiet && (tty || now - last_line > std::chrono::seconds(10))) {
-        const std::string line = ProgressLine(sessions, elapsed);
+        const std::string line = ProgressLine(sessions, elapsed, live_evaluator.get());
         if (tty) std::cerr << "\r\033[K" << line << std::flush;
         else std::cerr << "yamor-optimize: " << line << "\n";
         last_line = now;
@@ -271,7 +335,8 @@ int main(int argc, char** argv) {
     }
     for (auto& t : threads) t.join();
     if (!quiet && tty) std::cerr << "\r\033[K" << ProgressLine(sessions,
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()) << "\n";
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
+        live_evaluator.get()) << "\n";
 
     int exit_code = 0;
     for (std::size_t i = 0; i < sessions.size(); ++i) {
@@ -288,6 +353,8 @@ int main(int argc, char** argv) {
         std::cout << "; best velocity " << velocity << " (evaluation " << r.best_index << ")";
       }
       std::cout << "\n";
+      if (live) std::cout << "  robot time: " << FormatDuration(r.robot_seconds) << " in "
+                          << r.evaluations << " live trials\n";
       if (!r.error.empty()) std::cout << "  error: " << r.error << "\n";
       const fs::path dir = fs::absolute(instance_dirs[i]);
       std::cout << "  results:   " << dir.string() << "/ (evaluations.csv, summary.json)\n";

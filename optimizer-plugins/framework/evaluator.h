@@ -27,6 +27,9 @@ struct Evaluation {
   std::string divergence;    ///< Why, when diverged.
   std::string host;          ///< "host:port" that ran it ("local" in-process).
   double wall_seconds = 0.0; ///< Wall time of the evaluation on its host.
+  /// Robot time the evaluation spent on a live robot [s] (LiveEvaluator:
+  /// applying, settling, measuring); 0 for simulated evaluations.
+  double robot_seconds = 0.0;
 };
 
 /// Evaluates batches of candidates.

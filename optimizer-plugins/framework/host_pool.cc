@@ -22,6 +22,7 @@
 
 #include "common/log.h"
 #include "common/status.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "yamor/v1/host.grpc.pb.h"
 #include "yamor/v1/host.pb.h"
 
@@ -78,37 +79,8 @@ HostAddress ParseEntry(std::string_view entry, const std::string& where) {
 
 // ---- Helpers -------------------------------------------------------------------
 
-bool IsCallerError(grpc::StatusCode code) {
-  return code == grpc::StatusCode::INVALID_ARGUMENT || code == grpc::StatusCode::OUT_OF_RANGE ||
-         code == grpc::StatusCode::NOT_FOUND || code == grpc::StatusCode::FAILED_PRECONDITION;
-}
-
-std::string Describe(const grpc::Status& status) {
-  return std::string(StatusCodeName(static_cast<StatusCode>(status.error_code()))) + ": " +
-         status.error_message();
-}
-
-std::string FormatCandidate(const Candidate& candidate) {
-  std::string out = "{";
-  for (const auto& [name, value] : candidate.parameters) {
-    if (out.size() > 1) out += ", ";
-    out += fmt::format("{}={}", name, value);
-  }
-  return out + "}";
-}
-
-std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
-  return std::chrono::system_clock::now() +
-         std::chrono::duration_cast<std::chrono::system_clock::duration>(
-             std::chrono::duration<double>(seconds));
-}
-
 Clock::duration Seconds(double seconds) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-}
-
-int Milliseconds(double seconds) {
-  return static_cast<int>(std::clamp(seconds * 1000.0, 1.0, 1e9));
 }
 
 // HealthCheckResponse { ServingStatus status = 1; }: the status number
@@ -364,6 +336,30 @@ HostPool::Impl::Impl(std::vector<HostAddress> addresses, EvaluationSettings sett
   base_request_.set_duration(settings_.duration);
   base_request_.set_seed(settings_.seed);
   base_request_.set_time_step(settings_.time_step);
+  for (const auto& [module, defect] : settings_.motor_defects) {
+    if (module < 0) {
+      throw Error(StatusCode::kNotFound, fmt::format("motor defect: module {} does not exist", module));
+    }
+    v1::SetMotorDefectRequest* d = base_request_.add_motor_defects();
+    d->set_module_id(static_cast<uint32_t>(module));
+    d->set_defect(defect == MotorDefect::kLimp    ? v1::MOTOR_LIMP
+                  : defect == MotorDefect::kStuck ? v1::MOTOR_STUCK
+                                                  : v1::MOTOR_OK);
+  }
+  for (int module : settings_.module_defects) {
+    if (module < 0) {
+      throw Error(StatusCode::kNotFound, fmt::format("module defect: module {} does not exist", module));
+    }
+    v1::SetModuleDefectRequest* d = base_request_.add_module_defects();
+    d->set_module_id(static_cast<uint32_t>(module));
+    d->set_defective(true);
+  }
+  if (settings_.ground_friction) base_request_.mutable_ground()->set_friction(*settings_.ground_friction);
+  if (settings_.ground_slope) base_request_.mutable_ground()->set_slope(*settings_.ground_slope);
+  if (settings_.ground_slope_direction) {
+    base_request_.mutable_ground()->set_slope_direction(*settings_.ground_slope_direction);
+  }
+  base_request_.set_upside_down(settings_.upside_down);
   if (settings_.deadline_seconds > 0) {
     deadline_seconds_ = settings_.deadline_seconds;
   } else {
@@ -383,14 +379,8 @@ HostPool::Impl::Impl(std::vector<HostAddress> addresses, EvaluationSettings sett
       throw Error(StatusCode::kInvalidArgument, "duplicate host " + host->name);
     }
     host->address = std::move(address);
-    grpc::ChannelArguments args;
-    // Our own backoff decides when to retry a host; keep gRPC's reconnect
-    // backoff (default up to 120 s) from delaying the check that finds it
-    // back, and keep channels to one address independent.
-    args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, Milliseconds(options_.retry_initial));
-    args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, Milliseconds(options_.retry_max));
-    args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
-    host->channel = grpc::CreateCustomChannel(host->name, grpc::InsecureChannelCredentials(), args);
+    // Our own backoff decides when to retry a host.
+    host->channel = MakeHostChannel(host->name, options_.retry_initial, options_.retry_max);
     host->stub = v1::Host::NewStub(host->channel);
     host->generic = std::make_unique<grpc::GenericStub>(host->channel);
     host->next_check = now;
@@ -636,7 +626,7 @@ void HostPool::Impl::OnEvaluated(Call* raw, const grpc::Status& status) {
                                       status.error_message()),
                             cancel);
         } else {
-          HostFailedLocked(host, Describe(status), std::move(call->work), cancel);
+          HostFailedLocked(host, DescribeStatus(status), std::move(call->work), cancel);
         }
       }
       cv_.notify_all();
@@ -823,7 +813,7 @@ void HostPool::Impl::OnHealthChecked(Probe* probe, const grpc::Status& status) {
       return;
     }
   } else if (status.error_code() != grpc::StatusCode::UNIMPLEMENTED) {
-    FinishProbe(probe, false, 0, "health check: " + Describe(status));
+    FinishProbe(probe, false, 0, "health check: " + DescribeStatus(status));
     return;
   }
   probe->host->stub->async()->GetInfo(
@@ -831,7 +821,7 @@ void HostPool::Impl::OnHealthChecked(Probe* probe, const grpc::Status& status) {
         if (info_status.ok()) {
           FinishProbe(probe, true, static_cast<int>(probe->info.worker_capacity()), "");
         } else {
-          FinishProbe(probe, false, 0, "GetInfo: " + Describe(info_status));
+          FinishProbe(probe, false, 0, "GetInfo: " + DescribeStatus(info_status));
         }
       });
 }

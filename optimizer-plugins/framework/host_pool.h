@@ -8,7 +8,9 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "optimizer-plugins/framework/evaluator.h"
@@ -32,6 +34,13 @@ struct HostAddress {
 /// kNotFound when FILE cannot be read.
 std::vector<HostAddress> ParseHosts(const std::string& spec);
 
+/// A motor defect of the evaluated robot (EvaluateRequest.motor_defects).
+enum class MotorDefect {
+  kOk,     ///< No defect (checked, changes nothing).
+  kLimp,   ///< No torque.
+  kStuck,  ///< Locked at its angle.
+};
+
 /// The fixed part of every EvaluateRequest; Candidate::parameters become the
 /// request's parameters.
 struct EvaluationSettings {
@@ -44,6 +53,17 @@ struct EvaluationSettings {
   double time_step = 0;        ///< Physics step [s]; 0 = daemon default.
   /// Deadline of one Evaluate RPC [s]; 0: 10 * (warmup + duration) + 60.
   double deadline_seconds = 0;
+  // The evaluated robot's condition (a model of a live robot: issue 13
+  // "model" mode). Real module ids; the daemon validates them (NOT_FOUND,
+  // INVALID_ARGUMENT, OUT_OF_RANGE are caller errors of every evaluation).
+  /// Motor defects: (module, defect); the motor is switched off and faulted.
+  std::vector<std::pair<int, MotorDefect>> motor_defects;
+  /// Modules with a whole-module defect (oscillator dead, motor limp).
+  std::vector<int> module_defects;
+  std::optional<double> ground_friction;         ///< Coulomb coefficient in (0, 100]; unset: the world's.
+  std::optional<double> ground_slope;            ///< [rad] in [0, π/2); unset: the world's (flat).
+  std::optional<double> ground_slope_direction;  ///< Downhill azimuth [rad]; unset: the world's.
+  bool upside_down = false;                      ///< Start turned upside down.
 };
 
 /// How the pool treats failing hosts.
@@ -99,7 +119,8 @@ class HostPool final : public Evaluator {
   /// Connects to `hosts` and health-checks each once (waiting at most about
   /// options.health_timeout) before returning; hosts that fail are retried in
   /// the background. Throws kInvalidArgument for an empty or duplicated host
-  /// list or invalid options.
+  /// list or invalid options, kNotFound for a negative module id in the
+  /// settings' defects.
   HostPool(std::vector<HostAddress> hosts, EvaluationSettings settings, PoolOptions options = {});
   /// Cancels every RPC and waits for them to return.
   ~HostPool() override;

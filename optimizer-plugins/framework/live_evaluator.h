@@ -43,20 +43,49 @@ struct LiveMeasurement {
   std::string position_source;  ///< "simulation" or "led-tracker".
 };
 
+/// What PrepareLiveRobot did.
+struct LivePreparation {
+  std::string backend;          ///< The daemon's backend ("simulation", "serial").
+  bool connected_now = false;   ///< ConnectRobot ran (else the robot was connected: Refresh).
+  int links = 0;                ///< Bluetooth links ConnectRobot built.
+};
+
+/// Readies the robot of the daemon at `address` for live trials of the
+/// robot configuration `config_xml` (yamor-optimize --live): LoadConfig
+/// (named `source_name`); then ConnectRobot (links and the whole
+/// configuration) when GetInfo says no robot is connected, else Refresh
+/// (the whole configuration again); then SendControlMessage to all modules:
+/// UART, CPG and motors on (inactive modules and defective motors stay
+/// off, as the daemon rules). Each call has `deadline` seconds. Throws the
+/// daemon's code naming the call (kInvalidArgument for a configuration the
+/// world cannot hold), kUnavailable when the daemon is unreachable or gone.
+LivePreparation PrepareLiveRobot(const HostAddress& address, const std::string& config_xml,
+                                 const std::string& source_name, double deadline = 60);
+
 /// Evaluates candidates one at a time on the robot of one yamord.
 ///
 /// The daemon must have a robot connected with its configuration loaded;
 /// a trial leaves the robot running the last candidate applied. Parameter
-/// names are DESIGN.md's (amplitude.3, phase.2.5, ...); each becomes the
-/// matching Set* call, then one Flush. The CPG period of a trial is
-/// 1 / (smallest non-zero driven speed): the candidate's speed.N values where
-/// it sets them, the robot's current speeds otherwise.
+/// names are DESIGN.md's (amplitude.3, phase.2.5, ...); a candidate is first
+/// checked against a copy of the daemon's configuration (SaveConfig), so a
+/// refused one leaves the robot unchanged, then each parameter becomes the
+/// matching Set* call (a module's limits ordered so min < max holds at every
+/// step), then one Flush. Robot time advances with virtual-time Sleep calls
+/// on a simulation, and on the wall clock on a real robot or a simulation in
+/// free run (GetInfo.free_run_factor f > 0: one robot second per 1/f wall
+/// seconds); velocity = ground-plane distance between the first and last
+/// RobotPosition samples / the difference of their `time` fields. The CPG
+/// period of a trial is 1 / (smallest non-zero driven speed): the
+/// candidate's speed.N values where it sets them, the robot's current speeds
+/// otherwise. Evaluation::robot_seconds is the ElapsedTime a trial spent.
 ///
 /// Errors from EvaluateBatch and Measure: kCancelled after RequestStop;
 /// kUnavailable when the daemon or its link is gone (naming it);
 /// kFailedPrecondition when no robot is connected; the daemon's own code
 /// (kNotFound, kOutOfRange, kInvalidArgument) when it refuses a parameter,
-/// naming the candidate and the parameter.
+/// naming the candidate and the parameter (checked locally with the
+/// daemon's own rules, cpg::ApplyParameters); kUnimplemented when the
+/// daemon cannot give a position (a real robot without an LED tracker).
 ///
 /// Thread safety: EvaluateBatch and Measure serialize on an internal mutex
 /// (one robot, capacity 1); RequestStop, Trials and RobotSeconds may be
@@ -64,7 +93,9 @@ struct LiveMeasurement {
 class LiveEvaluator final : public Evaluator {
  public:
   /// Attaches to the daemon at `address` (checks GetInfo: reachable and a
-  /// robot connected). Throws kUnavailable or kFailedPrecondition.
+  /// robot connected). Throws kUnavailable or kFailedPrecondition;
+  /// kInvalidArgument for options that are not finite and positive
+  /// (settle_periods may be 0).
   explicit LiveEvaluator(const HostAddress& address, LiveOptions options = {});
   /// Uses an existing channel; `name` names the daemon in errors and
   /// Evaluation::host.

@@ -242,13 +242,16 @@ void Session::Record(const std::vector<std::vector<double>>& points,
             csv_columns_.push_back(name);
             csv_ << ',' << CsvField(name);
           }
-          csv_ << ",velocity,distance,diverged,host,wall_seconds\n";
+          csv_ << ",velocity,distance,diverged,host,wall_seconds"
+               << (options_.live ? ",robot_seconds\n" : "\n");
         }
         csv_ << record.index;
         for (const auto& [name, value] : batch[k].parameters) csv_ << ',' << OutputNumber(value);
         csv_ << ',' << OutputNumber(results[k].velocity) << ',' << OutputNumber(results[k].distance)
              << ',' << (results[k].diverged ? 1 : 0) << ',' << CsvField(results[k].host) << ','
-             << OutputNumber(results[k].wall_seconds) << '\n';
+             << OutputNumber(results[k].wall_seconds);
+        if (options_.live) csv_ << ',' << OutputNumber(results[k].robot_seconds);
+        csv_ << '\n';
       }
       records_.push_back(std::move(record));
     }
@@ -319,6 +322,7 @@ SessionResult Session::Run() {
     result.best_index = best_.best_index;
     result.best_point = best_.best_point;
     result.evaluations = static_cast<long long>(records_.size());
+    for (const EvaluationRecord& r : records_) result.robot_seconds += r.evaluation.robot_seconds;
     if (csv_.is_open()) csv_.close();
   }
   result.wall_seconds = Seconds(start_);  // only Run writes start_
@@ -362,11 +366,13 @@ void Session::WriteSummary(const SessionResult& result) const {
   j << "},\n";
   j << "  \"problem\": \"" << JsonEscape(problem_.source) << "\",\n";
   j << "  \"evaluator\": \"" << JsonEscape(options_.evaluator_description) << "\",\n";
+  j << "  \"live\": " << (options_.live ? "true" : "false") << ",\n";
   j << "  \"seed\": " << options_.seed << ",\n";
   j << "  \"status\": \"" << result.status << "\",\n";
   j << "  \"error\": \"" << JsonEscape(result.error) << "\",\n";
   j << "  \"evaluations\": " << result.evaluations << ",\n";
   j << "  \"wall_seconds\": " << OutputNumber(result.wall_seconds) << ",\n";
+  j << "  \"robot_seconds\": " << OutputNumber(result.robot_seconds) << ",\n";
   j << "  \"evaluations_per_second\": "
     << OutputNumber(result.wall_seconds > 0 ? result.evaluations / result.wall_seconds : 0.0) << ",\n";
   j << "  \"parameters\": [";

@@ -51,6 +51,9 @@ struct SessionOptions {
   std::map<std::string, std::string> set;  ///< --set values (validated here).
   std::string out_dir;        ///< Results folder; empty = write nothing.
   std::string evaluator_description;  ///< E.g. the host list (summary.json).
+  /// Evaluations run on a live robot (LiveEvaluator): evaluations.csv gets a
+  /// robot_seconds column, summary.json says "live": true.
+  bool live = false;
 };
 
 /// One recorded evaluation.
@@ -83,6 +86,7 @@ struct SessionResult {
   long long best_index = -1;       ///< Its record index.
   std::vector<double> best_point;  ///< Its optimized values.
   double wall_seconds = 0.0;       ///< Duration of Run.
+  double robot_seconds = 0.0;      ///< Sum of the evaluations' robot time (live runs).
 };
 
 /// Runs one plugin instance.

@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <thread>
 
 #include "bridge/robot.h"
@@ -394,6 +395,86 @@ TEST(EvaluateTest, ParameterErrorsNameTheParameter) {
   EXPECT_EQ(CodeOf([&] { RunEvaluation(timing, nullptr); }), StatusCode::kOutOfRange);
   timing = QuadrupedEvaluation(1.0, NAN);
   EXPECT_EQ(CodeOf([&] { RunEvaluation(timing, nullptr); }), StatusCode::kInvalidArgument);
+}
+
+// Issue 13 §2 "model" mode: the evaluated robot's condition changes its gait.
+TEST(EvaluateTest, DefectsGroundAndUpsideDownChangeTheVelocity) {
+  const EvaluationResult healthy = RunEvaluation(QuadrupedEvaluation(1.0, 3.0), nullptr);
+  ASSERT_FALSE(healthy.diverged);
+  ASSERT_GT(healthy.velocity, 0.01);
+  struct Case {
+    std::string name;
+    std::function<void(EvaluationSpec&)> change;
+  };
+  const Case cases[] = {
+      {"limp motor 2", [](EvaluationSpec& s) { s.motor_defects = {{2, MotorDefect::kLimp}}; }},
+      {"stuck motor 2", [](EvaluationSpec& s) { s.motor_defects = {{2, MotorDefect::kStuck}}; }},
+      {"module 3 defect", [](EvaluationSpec& s) { s.module_defects = {{3, true}}; }},
+      {"slippery ground", [](EvaluationSpec& s) { s.ground.friction = 0.05; }},
+      {"slope", [](EvaluationSpec& s) { s.ground = {.slope = 0.35, .slope_direction = M_PI / 2}; }},
+      {"upside down", [](EvaluationSpec& s) { s.upside_down = true; }},
+  };
+  for (const Case& c : cases) {
+    EvaluationSpec spec = QuadrupedEvaluation(1.0, 3.0);
+    c.change(spec);
+    const EvaluationResult changed = RunEvaluation(spec, nullptr);
+    EXPECT_FALSE(changed.diverged) << c.name << ": " << changed.divergence;
+    EXPECT_GT(std::abs(changed.velocity - healthy.velocity), 0.1 * healthy.velocity)
+        << c.name << ": " << changed.velocity << " vs healthy " << healthy.velocity;
+  }
+  EvaluationSpec again = QuadrupedEvaluation(1.0, 3.0);
+  again.ground.friction = 0.05;
+  again.upside_down = true;
+  EXPECT_EQ(RunEvaluation(again, nullptr).velocity, RunEvaluation(again, nullptr).velocity)
+      << "deterministic";
+  // Entries that change nothing are checked and leave the run bit-identical.
+  EvaluationSpec ok = QuadrupedEvaluation(1.0, 3.0);
+  ok.motor_defects = {{2, MotorDefect::kNone}};
+  ok.module_defects = {{3, false}};
+  EXPECT_EQ(RunEvaluation(ok, nullptr).velocity, healthy.velocity);
+}
+
+TEST(EvaluateTest, BadConditionValuesAreRefusedNamingThem) {
+  struct Case {
+    std::string name;
+    std::function<void(EvaluationSpec&)> change;
+    StatusCode code;
+    std::string mention;
+  };
+  const Case cases[] = {
+      {"motor defect of a module not configured",
+       [](EvaluationSpec& s) { s.motor_defects = {{42, MotorDefect::kLimp}}; },
+       StatusCode::kNotFound, "module 42"},
+      {"motor defect twice",
+       [](EvaluationSpec& s) { s.motor_defects = {{2, MotorDefect::kLimp}, {2, MotorDefect::kNone}}; },
+       StatusCode::kInvalidArgument, "module 2"},
+      {"module defect not in the world", [](EvaluationSpec& s) { s.module_defects = {{99, true}}; },
+       StatusCode::kNotFound, "module 99"},
+      {"module defect out of id range", [](EvaluationSpec& s) { s.module_defects = {{300, false}}; },
+       StatusCode::kNotFound, "module 300"},
+      {"module defect twice", [](EvaluationSpec& s) { s.module_defects = {{3, true}, {3, true}}; },
+       StatusCode::kInvalidArgument, "module 3"},
+      {"NaN friction", [](EvaluationSpec& s) { s.ground.friction = NAN; },
+       StatusCode::kInvalidArgument, "friction"},
+      {"zero friction", [](EvaluationSpec& s) { s.ground.friction = 0.0; },
+       StatusCode::kOutOfRange, "friction"},
+      {"huge friction", [](EvaluationSpec& s) { s.ground.friction = 1000.0; },
+       StatusCode::kOutOfRange, "friction"},
+      {"steep slope", [](EvaluationSpec& s) { s.ground.slope = 2.0; }, StatusCode::kOutOfRange,
+       "slope"},
+      {"negative slope", [](EvaluationSpec& s) { s.ground.slope = -0.1; },
+       StatusCode::kOutOfRange, "slope"},
+      {"infinite slope direction",
+       [](EvaluationSpec& s) { s.ground.slope_direction = INFINITY; },
+       StatusCode::kInvalidArgument, "slope direction"},
+  };
+  for (const Case& c : cases) {
+    EvaluationSpec spec = QuadrupedEvaluation(0.0, 0.1);
+    c.change(spec);
+    std::string message;
+    EXPECT_EQ(CodeOf([&] { RunEvaluation(spec, nullptr); }, &message), c.code) << c.name;
+    EXPECT_NE(message.find(c.mention), std::string::npos) << c.name << ": " << message;
+  }
 }
 
 TEST(EvaluateTest, CancellationStopsBetweenChunks) {

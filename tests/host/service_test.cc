@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <functional>
+#include <string>
 #include <thread>
 
 #include "host/service.h"
@@ -329,6 +330,78 @@ TEST_F(ServiceTest, ParallelEvaluationsBothSucceed) {
   EXPECT_OK(sa);
   EXPECT_OK(sb);
   EXPECT_EQ(a.velocity(), b.velocity());
+}
+
+// Issue 13 §2: the evaluated robot's condition travels in the request and
+// its values are checked with the canonical codes, naming the value.
+TEST_F(ServiceTest, EvaluateTakesTheRobotsCondition) {
+  v1::EvaluateRequest healthy;
+  healthy.set_world("quadruped");
+  healthy.set_warmup(1.0);
+  healthy.set_duration(2.0);
+  healthy.set_seed(3);
+  v1::EvaluateResponse base;
+  EXPECT_OK(Call(*stub_, &v1::Host::Stub::Evaluate, healthy, &base));
+  ASSERT_GT(base.velocity(), 0.0);
+  auto velocity = [&](const std::function<void(v1::EvaluateRequest&)>& change) {
+    v1::EvaluateRequest request = healthy;
+    change(request);
+    v1::EvaluateResponse response;
+    EXPECT_OK(Call(*stub_, &v1::Host::Stub::Evaluate, request, &response));
+    return response.velocity();
+  };
+  EXPECT_NE(velocity([](v1::EvaluateRequest& r) {
+              auto* d = r.add_motor_defects();
+              d->set_module_id(2);
+              d->set_defect(v1::MOTOR_LIMP);
+            }),
+            base.velocity());
+  EXPECT_NE(velocity([](v1::EvaluateRequest& r) {
+              auto* d = r.add_module_defects();
+              d->set_module_id(3);
+              d->set_defective(true);
+            }),
+            base.velocity());
+  EXPECT_NE(velocity([](v1::EvaluateRequest& r) { r.mutable_ground()->set_friction(0.05); }),
+            base.velocity());
+  EXPECT_NE(velocity([](v1::EvaluateRequest& r) { r.set_upside_down(true); }), base.velocity());
+  EXPECT_EQ(velocity([](v1::EvaluateRequest& r) { r.mutable_ground(); }), base.velocity())
+      << "an empty ground message changes nothing";
+
+  struct Case {
+    std::function<void(v1::EvaluateRequest&)> change;
+    grpc::StatusCode code;
+    std::string mention;
+  };
+  const Case cases[] = {
+      {[](v1::EvaluateRequest& r) { r.add_motor_defects()->set_module_id(77); },
+       grpc::StatusCode::NOT_FOUND, "module 77"},
+      {[](v1::EvaluateRequest& r) { r.add_motor_defects()->set_module_id(1000); },
+       grpc::StatusCode::NOT_FOUND, "module 1000"},
+      {[](v1::EvaluateRequest& r) {
+         auto* d = r.add_motor_defects();
+         d->set_module_id(2);
+         d->set_defect(static_cast<v1::MotorDefect>(9));
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "motor defect 9"},
+      {[](v1::EvaluateRequest& r) {
+         auto* d = r.add_module_defects();
+         d->set_module_id(88);
+         d->set_defective(true);
+       },
+       grpc::StatusCode::NOT_FOUND, "module 88"},
+      {[](v1::EvaluateRequest& r) { r.mutable_ground()->set_friction(NAN); },
+       grpc::StatusCode::INVALID_ARGUMENT, "friction"},
+      {[](v1::EvaluateRequest& r) { r.mutable_ground()->set_slope(1.6); },
+       grpc::StatusCode::OUT_OF_RANGE, "slope"},
+  };
+  for (const Case& c : cases) {
+    v1::EvaluateRequest request = healthy;
+    c.change(request);
+    const grpc::Status status = Call(*stub_, &v1::Host::Stub::Evaluate, request);
+    EXPECT_EQ(status.error_code(), c.code) << status.error_message();
+    EXPECT_NE(status.error_message().find(c.mention), std::string::npos) << status.error_message();
+  }
 }
 
 // Issue 12 §0: after a transformation, GetMorphology and an Evaluate on the

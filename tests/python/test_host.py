@@ -251,6 +251,22 @@ def test_evaluate_is_deterministic(fresh):
     assert fresh.elapsed_time() == 0.0
 
 
+def test_evaluate_takes_the_robots_condition(fresh):
+    healthy = fresh.evaluate(seed=5, warmup=1, duration=2)
+    for condition in ({"motor_defects": {2: "limp"}}, {"module_defects": [3]},
+                      {"friction": 0.05}, {"upside_down": True}):
+        changed = fresh.evaluate(seed=5, warmup=1, duration=2, **condition)
+        assert changed.velocity != healthy.velocity, condition
+    with pytest.raises(yamor.HostError) as error:
+        fresh.evaluate(seed=5, warmup=1, duration=2, module_defects=[99])
+    assert error.value.code == "NOT_FOUND" and "module 99" in error.value.message
+    with pytest.raises(yamor.HostError) as error:
+        fresh.evaluate(seed=5, warmup=1, duration=2, slope=2.0)
+    assert error.value.code == "OUT_OF_RANGE"
+    with pytest.raises(ValueError):
+        fresh.evaluate(motor_defects={2: "melted"})
+
+
 def test_watch_yields_updates_and_events(fresh):
     fresh.connect()
     fresh.control(uart=True, cpg=True, motors=True)

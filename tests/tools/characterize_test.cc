@@ -67,6 +67,29 @@ TEST(CharacterizeMovesTest, GoAndReturnDriftsAndTheFiltersHelp) {
   EXPECT_LT(filtered_total, unfiltered_total / 2);
 }
 
+// The tracker is a 25-Hz camera: its curves change only at its frames, and
+// its velocity over frames stays within what 3.3 mm steps allow.
+TEST(CharacterizeMovesTest, TheTrackerSeesTheMoveAtItsFrameRate) {
+  MoveOptions options;
+  const MoveResult r = MeasureMove(physics::SineMove(), options);
+  ASSERT_GT(r.rows.size(), 100u);
+  int changes = 0;
+  for (size_t i = 1; i < r.rows.size(); ++i) {
+    if (r.rows[i].tracker_position != r.rows[i - 1].tracker_position ||
+        r.rows[i].tracker_velocity != r.rows[i - 1].tracker_velocity) {
+      ++changes;
+    }
+  }
+  const double span = r.rows.back().time - r.rows.front().time;
+  EXPECT_LE(changes, int(span * options.tracker_rate) + 1);
+  EXPECT_GT(changes, int(span * options.tracker_rate) / 4) << "the LED moved for the 2-s move";
+  double peak_speed = 0;
+  for (const MoveRow& row : r.rows) peak_speed = std::max(peak_speed, row.tracker_velocity.norm());
+  EXPECT_LT(peak_speed, 1.0) << "a hand move seen at 25 Hz, not 3.3 mm per AN3397 sample";
+  options.tracker_rate = 0;
+  EXPECT_THROW(MeasureMove(physics::SineMove(), options), Error);
+}
+
 TEST(CharacterizeMovesTest, DropShiftsTheOffsetsAndVelocityKeepsGrowing) {
   MoveOptions options;
   options.module.seed = 5;

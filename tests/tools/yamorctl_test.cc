@@ -286,6 +286,13 @@ TEST_F(YamorctlTest, EveryCommandSendsItsRequest) {
        "world: \"quadruped\" parameters { name: \"amplitude.3\" value: 0.5 } parameters { name: "
        "\"phase.2.5\" value: -1 } warmup: 2 duration: 3 seed: 9 trajectory_period: 0.5 "
        "time_step: 0.002"},
+      {{"evaluate", "--world", "quadruped", "--motor-defect", "3=limp", "--motor-defect", "4=stuck",
+        "--module-defect", "5", "--friction", "0.2", "--slope", "0.1", "--slope-direction", "1.5",
+        "--upside-down"},
+       "Evaluate",
+       "world: \"quadruped\" motor_defects { module_id: 3 defect: MOTOR_LIMP } motor_defects { "
+       "module_id: 4 defect: MOTOR_STUCK } module_defects { module_id: 5 defective: true } ground { "
+       "friction: 0.2 slope: 0.1 slope_direction: 1.5 } upside_down: true"},
       {{"evaluate", "--config", config, "--morphology", morphology}, "Evaluate",
        "config_xml: \"<yamorconfig/>\" morphology_xml: \"<morphology/>\""},
       {{"freerun", "2"}, "SetFreeRun", "real_time_factor: 2"},
@@ -487,6 +494,9 @@ TEST_F(YamorctlTest, UsageErrorsExitTwoWithoutCalling) {
       {"script", "/nonexistent/yamorctl/script.xml"},
       {"evaluate", "--param", "amplitude.3"},
       {"evaluate", "--param", "amplitude.3=fast"},
+      {"evaluate", "--motor-defect", "3"},
+      {"evaluate", "--motor-defect", "x=limp"},
+      {"evaluate", "--motor-defect", "3=broken"},
       {"--timeout", "0", "info"},
       {"sleep"},
   };

@@ -98,6 +98,10 @@ MoveResult MeasureMove(const physics::MotionPath& path, const MoveOptions& optio
     throw Error(StatusCode::kInvalidArgument, "tracker_resolution must be finite and > 0, got " +
                                                   FormatDouble(options.tracker_resolution));
   }
+  if (!(std::isfinite(options.tracker_rate) && options.tracker_rate > 0)) {
+    throw Error(StatusCode::kInvalidArgument, "tracker_rate must be finite and > 0, got " +
+                                                  FormatDouble(options.tracker_rate));
+  }
   MoveResult result;
   result.name = path.name();
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
@@ -114,21 +118,32 @@ MoveResult MeasureMove(const physics::MotionPath& path, const MoveOptions& optio
     MoveRow row;
     row.time = s.time;
     row.true_position = s.sensor_position - origin;
-    for (int i = 0; i < 3; ++i) {
-      row.tracker_position[i] = Quantise(row.true_position[i], options.tracker_resolution);
-    }
     row.filtered = *a;
     row.noise_filtered = *b;
     result.rows.push_back(row);
   }
-  std::vector<Eigen::Vector3d> p;
-  p.reserve(result.rows.size());
-  for (const MoveRow& r : result.rows) p.push_back(r.tracker_position);
-  const std::vector<Eigen::Vector3d> v = Differentiate(p, full.sample_period);
-  const std::vector<Eigen::Vector3d> acc = Differentiate(v, full.sample_period);
+  // The camera sees the LED at its frames only: positions sampled (and held)
+  // at tracker_rate, differentiated over the frames.
+  const double frame = 1.0 / options.tracker_rate;
+  std::vector<Eigen::Vector3d> frames;   // quantised position at each frame
+  std::vector<size_t> frame_of_row(result.rows.size(), 0);
+  double next_frame_time = result.rows.empty() ? 0.0 : result.rows.front().time;
   for (size_t i = 0; i < result.rows.size(); ++i) {
-    result.rows[i].tracker_velocity = v[i];
-    result.rows[i].tracker_acceleration = acc[i];
+    MoveRow& row = result.rows[i];
+    if (frames.empty() || row.time >= next_frame_time - 1e-12) {
+      Eigen::Vector3d q;
+      for (int k = 0; k < 3; ++k) q[k] = Quantise(row.true_position[k], options.tracker_resolution);
+      frames.push_back(q);
+      next_frame_time += frame;
+    }
+    frame_of_row[i] = frames.size() - 1;
+  }
+  const std::vector<Eigen::Vector3d> v = Differentiate(frames, frame);
+  const std::vector<Eigen::Vector3d> acc = Differentiate(v, frame);
+  for (size_t i = 0; i < result.rows.size(); ++i) {
+    result.rows[i].tracker_position = frames[frame_of_row[i]];
+    result.rows[i].tracker_velocity = v[frame_of_row[i]];
+    result.rows[i].tracker_acceleration = acc[frame_of_row[i]];
   }
   if (!result.rows.empty()) {
     const MoveRow& last = result.rows.back();

@@ -71,6 +71,9 @@ struct MoveOptions {
   physics::DrivenModuleOptions module;   ///< Raw sampling (6400 Hz) and sensor.
   physics::An3397Options filter;         ///< The chain (sample_period is set from module).
   double tracker_resolution = 0.0033;    ///< LED tracker's resolution, m (appendix B).
+  /// Camera frames per second (CamApp, docs/camapp.md): the tracker sees the
+  /// LED only at its frames and is differentiated there, not at the AN3397 rate.
+  double tracker_rate = 25;
 };
 
 /// One output row of a move, at the AN3397 sample rate.
@@ -78,9 +81,12 @@ struct MoveOptions {
 struct MoveRow {
   double time = 0;  ///< s since the path started.
   Eigen::Vector3d true_position = Eigen::Vector3d::Zero();  ///< Sensor, from calibration end, m.
-  Eigen::Vector3d tracker_position = Eigen::Vector3d::Zero();  ///< Quantised to the resolution.
-  Eigen::Vector3d tracker_velocity = Eigen::Vector3d::Zero();  ///< Differentiated, m/s.
-  Eigen::Vector3d tracker_acceleration = Eigen::Vector3d::Zero();  ///< Twice, m/s².
+  /// The tracker's last frame at or before `time`: quantised to the resolution.
+  Eigen::Vector3d tracker_position = Eigen::Vector3d::Zero();
+  /// Central difference over the tracker's frames at that frame, m/s.
+  Eigen::Vector3d tracker_velocity = Eigen::Vector3d::Zero();
+  /// The velocity differentiated again over the frames, m/s².
+  Eigen::Vector3d tracker_acceleration = Eigen::Vector3d::Zero();
   physics::DeadReckoningSample noise_filtered;  ///< Noise filter only (black curve).
   physics::DeadReckoningSample filtered;        ///< Window + movement end too (red curve).
 };

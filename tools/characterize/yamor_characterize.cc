@@ -1,6 +1,8 @@
 // yamor-characterize: thesis chapter 4 in simulation.
 //   noise  a module at rest → Table 4.1 and the data of Figures B.1–B.4
 //   moves  the moves of 4.3.4 → the curves of Figures B.5–B.19
+//   record a board's raw counts through a yamord (real robot or simulation)
+//          → a logged CSV for `noise --input` and `moves --input`
 // Files are written through a temporary name and a rename: an interrupted
 // run leaves no half-written CSV.
 #include <cstdint>
@@ -15,6 +17,7 @@
 
 #include "common/format.h"
 #include "common/status.h"
+#include "tools/characterize/board_recorder.h"
 #include "tools/characterize/characterize.h"
 
 namespace {
@@ -114,8 +117,23 @@ int main(int argc, char** argv) {
                     "filter logged readings instead (CSV: time,count_x,count_y,count_z; "
                     "the first 1024 at rest)");
   moves->add_option("--name", name, "with --input: name of the output CSV (logged)");
+  yamor::characterize::BoardRecording board;
+  std::string record_out;
+  CLI::App* record = app.add_subcommand(
+      "record", "a board's raw counts through a yamord (serial backend or simulation) → CSV");
+  record->add_option("--host", board.host, "yamord host:port (127.0.0.1:2224)");
+  record->add_option("--module", board.module_id, "real id of the module (UART on)")->required();
+  record->add_option("--seconds", board.seconds, "length (10)")->check(CLI::PositiveNumber);
+  record->add_option("--out", record_out, "CSV to write (time,count_x,count_y,count_z)")
+      ->required();
   CLI11_PARSE(app, argc, argv);
   try {
+    if (record->parsed()) {
+      const auto readings = yamor::characterize::RecordBoard(board);
+      ch::WriteFileAtomically(record_out, yamor::characterize::LoggedReadingsCsv(readings));
+      std::printf("recorded %zu readings of module %d from %s to %s\n", readings.size(),
+                  board.module_id, board.host.c_str(), record_out.c_str());
+    }
     if (noise->parsed()) Noise(out, seed, duration, rate, input);
     if (moves->parsed()) {
       if (input.empty()) {

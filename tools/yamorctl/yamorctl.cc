@@ -723,8 +723,14 @@ void AddModelCommands(CLI::App& app, Action& action) {
 void AddEvaluate(CLI::App& app, Action& action) {
   struct Args {
     std::string config_file, world, morphology_file;
-    std::vector<std::string> params;
+    std::vector<std::string> params, motor_defects;
+    std::vector<uint32_t> module_defects;
     double warmup = 0.0, duration = 0.0, trajectory = 0.0, step = 0.0;
+    double friction = 0.0, slope = 0.0, direction = 0.0;
+    CLI::Option* friction_option = nullptr;
+    CLI::Option* slope_option = nullptr;
+    CLI::Option* direction_option = nullptr;
+    bool upside_down = false;
     uint64_t seed = 0;
   };
   auto a = std::make_shared<Args>();
@@ -742,6 +748,15 @@ void AddEvaluate(CLI::App& app, Action& action) {
   c->add_option("--seed", a->seed, "World and oscillator seed");
   c->add_option("--trajectory", a->trajectory, "Sample the trajectory every S seconds (0: no)");
   c->add_option("--step", a->step, "Physics step [s] (0: default)");
+  c->add_option("--motor-defect", a->motor_defects,
+                "Motor defect of the evaluated robot ID=limp|stuck|ok, e.g. 3=limp (repeatable)");
+  c->add_option("--module-defect", a->module_defects,
+                "Module of the evaluated robot with a whole-module defect (repeatable)");
+  a->friction_option = c->add_option("--friction", a->friction, "Ground friction coefficient (> 0)");
+  a->slope_option = c->add_option("--slope", a->slope, "Ground slope [rad] in [0, pi/2)");
+  a->direction_option =
+      c->add_option("--slope-direction", a->direction, "Downhill azimuth of the slope [rad]");
+  c->add_flag("--upside-down", a->upside_down, "Start the robot turned upside down");
   c->callback([&action, a] {
     action = [a](Session& s) {
       v1::EvaluateRequest request;
@@ -764,6 +779,29 @@ void AddEvaluate(CLI::App& app, Action& action) {
       request.set_seed(a->seed);
       request.set_trajectory_period(a->trajectory);
       request.set_time_step(a->step);
+      for (const std::string& text : a->motor_defects) {
+        const std::size_t equals = text.find('=');
+        const std::string id_text = text.substr(0, equals);
+        const std::string state = equals == std::string::npos ? "" : text.substr(equals + 1);
+        char* end = nullptr;
+        const unsigned long id = std::strtoul(id_text.c_str(), &end, 10);
+        if (id_text.empty() || end != id_text.c_str() + id_text.size() || id > 0xffffffffUL ||
+            (state != "limp" && state != "stuck" && state != "ok")) {
+          throw UsageError{"--motor-defect \"" + text + "\" is not ID=limp|stuck|ok"};
+        }
+        v1::SetMotorDefectRequest* d = request.add_motor_defects();
+        d->set_module_id(static_cast<uint32_t>(id));
+        d->set_defect(state == "limp" ? v1::MOTOR_LIMP : state == "stuck" ? v1::MOTOR_STUCK : v1::MOTOR_OK);
+      }
+      for (uint32_t id : a->module_defects) {
+        v1::SetModuleDefectRequest* d = request.add_module_defects();
+        d->set_module_id(id);
+        d->set_defective(true);
+      }
+      if (a->friction_option->count()) request.mutable_ground()->set_friction(a->friction);
+      if (a->slope_option->count()) request.mutable_ground()->set_slope(a->slope);
+      if (a->direction_option->count()) request.mutable_ground()->set_slope_direction(a->direction);
+      request.set_upside_down(a->upside_down);
       const double simulated =
           (a->warmup == 0.0 ? 8.0 : a->warmup) + (a->duration == 0.0 ? 12.0 : a->duration);
       return s.Unary(&v1::Host::Stub::Evaluate, request, s.Timeout(simulated), FormatEvaluation);

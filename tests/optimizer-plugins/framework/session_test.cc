@@ -121,6 +121,46 @@ TEST(Session, WritesTheResultsFolder) {
   EXPECT_NE(summary.find("\"evaluations\": 30"), std::string::npos) << summary;
   EXPECT_NE(summary.find("\"velocity\": " + FormatDouble(r.best_velocity)), std::string::npos) << summary;
   EXPECT_NE(summary.find("\"max_evaluations\": \"30\""), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"live\": false"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"robot_seconds\": 0,"), std::string::npos) << summary;
+}
+
+// A live run (yamor-optimize --live) records each trial's robot time.
+TEST(Session, ALiveRunRecordsTheRobotTime) {
+  // Each evaluation "spent" 2.5 robot seconds.
+  class RobotClock final : public Evaluator {
+   public:
+    std::vector<Evaluation> EvaluateBatch(const std::vector<Candidate>& batch) override {
+      std::vector<Evaluation> out;
+      for (const Candidate& c : batch) {
+        out.push_back(Evaluation{.velocity = Bowl(c.parameters), .host = "robot", .robot_seconds = 2.5});
+      }
+      return out;
+    }
+    void RequestStop() override {}
+    int Capacity() const override { return 1; }
+  };
+  const fs::path out = fs::path(::testing::TempDir()) / "session_live";
+  fs::remove_all(out);
+  LoadedPlugin plugin = LoadedPlugin::Load(TestPlugin("compass"));
+  Problem problem = BowlProblem();
+  RobotClock evaluator;
+  Session session(plugin, problem, evaluator,
+                  {.set = {{"max_evaluations", "6"}}, .out_dir = out.string(),
+                   .evaluator_description = "live robot:1", .live = true});
+  const SessionResult r = session.Run();
+  EXPECT_EQ(r.evaluations, 6);
+  EXPECT_DOUBLE_EQ(r.robot_seconds, 15.0);
+  std::istringstream lines(ReadFile(out / "evaluations.csv"));
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "index,x,y,velocity,distance,diverged,host,wall_seconds,robot_seconds");
+  std::getline(lines, line);
+  EXPECT_EQ(line.substr(line.rfind(',')), ",2.5") << line;
+  const std::string summary = ReadFile(out / "summary.json");
+  EXPECT_NE(summary.find("\"live\": true"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"robot_seconds\": 15,"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"evaluator\": \"live robot:1\""), std::string::npos) << summary;
 }
 
 TEST(Session, APluginErrorEndsTheRunAsFailedWithItsMessage) {

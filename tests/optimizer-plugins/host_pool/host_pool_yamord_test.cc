@@ -160,5 +160,67 @@ TEST(HostPoolYamordTest, UnknownParameterIsACallerError) {
   EXPECT_EQ(s.failures, 0) << "a caller error is no host failure";
 }
 
+// Issue 13 §2 "model" mode: the robot's condition travels with every request.
+TEST(HostPoolYamordTest, TheRobotsConditionReachesEveryEvaluation) {
+  Daemon a(1);
+  ASSERT_GT(a.port(), 0);
+  const std::vector<Candidate> gait = Gaits(1);
+  HostPool healthy({a.address()}, Quadruped(), FastRetry());
+  const double base = EvaluateGuarded(healthy, gait).at(0).velocity;
+
+  EvaluationSettings broken = Quadruped();
+  broken.motor_defects = {{2, MotorDefect::kLimp}, {3, MotorDefect::kOk}};
+  broken.module_defects = {6};
+  broken.ground_friction = 0.3;
+  broken.ground_slope = 0.05;
+  broken.ground_slope_direction = 1.0;
+  broken.upside_down = true;
+  HostPool pool({a.address()}, broken, FastRetry());
+  const double changed = EvaluateGuarded(pool, gait).at(0).velocity;
+  EXPECT_NE(changed, base);
+
+  // The same condition in a direct request gives the bit-identical result.
+  auto stub = yamor::v1::Host::NewStub(
+      grpc::CreateChannel(a.address().ToString(), grpc::InsecureChannelCredentials()));
+  yamor::v1::EvaluateRequest request;
+  request.set_world("quadruped");
+  request.set_warmup(1);
+  request.set_duration(1);
+  request.set_seed(11);
+  for (const auto& [name, value] : gait[0].parameters) {
+    auto* p = request.add_parameters();
+    p->set_name(name);
+    p->set_value(value);
+  }
+  auto* limp = request.add_motor_defects();
+  limp->set_module_id(2);
+  limp->set_defect(yamor::v1::MOTOR_LIMP);
+  request.add_motor_defects()->set_module_id(3);
+  auto* dead = request.add_module_defects();
+  dead->set_module_id(6);
+  dead->set_defective(true);
+  request.mutable_ground()->set_friction(0.3);
+  request.mutable_ground()->set_slope(0.05);
+  request.mutable_ground()->set_slope_direction(1.0);
+  request.set_upside_down(true);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + seconds(60));
+  yamor::v1::EvaluateResponse direct;
+  ASSERT_TRUE(stub->Evaluate(&context, request, &direct).ok());
+  EXPECT_EQ(changed, direct.velocity());
+
+  EvaluationSettings unknown = Quadruped();
+  unknown.module_defects = {77};
+  HostPool refused({a.address()}, unknown, FastRetry());
+  std::string message;
+  try {
+    refused.EvaluateBatch(gait);
+    ADD_FAILURE() << "module 77 accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kNotFound) << e.what();
+    EXPECT_NE(std::string(e.what()).find("module 77"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace yamor::optimizer

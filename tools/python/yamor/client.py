@@ -601,21 +601,45 @@ class Host:
                  config_xml: str = "", config_file: Optional[Union[str, os.PathLike]] = None,
                  world: str = "", morphology_xml: str = "", warmup: float = 0.0,
                  duration: float = 0.0, seed: int = 0, trajectory_period: float = 0.0,
-                 time_step: float = 0.0, timeout: Optional[float] = None) -> Evaluation:
+                 time_step: float = 0.0,
+                 motor_defects: Optional[Mapping[int, str]] = None,
+                 module_defects: Iterable[int] = (), friction: Optional[float] = None,
+                 slope: Optional[float] = None, slope_direction: Optional[float] = None,
+                 upside_down: bool = False, timeout: Optional[float] = None) -> Evaluation:
         """Stateless gait evaluation on the daemon's worker pool (Evaluate).
 
         ``params``: parameter values by DESIGN name ("amplitude.3",
         "phase.2.5", ...) over the configuration. warmup/duration 0 mean the
         defaults (8 s, 12 s). The deadline adds warm-up plus duration.
+        The evaluated robot's condition: ``motor_defects`` maps module ids to
+        "limp", "stuck" or "ok"; ``module_defects`` lists defective modules;
+        ``friction``, ``slope`` and ``slope_direction`` change the ground
+        (None keeps the world's); ``upside_down`` starts it turned over.
         """
         if config_file is not None:
             config_xml = _read_text(config_file)
         items = params.items() if isinstance(params, Mapping) else (params or [])
+        defects = []
+        for module, defect in (motor_defects or {}).items():
+            try:
+                defects.append(pb.SetMotorDefectRequest(module_id=module,
+                                                        defect=_MOTOR_DEFECTS[defect.lower()]))
+            except KeyError:
+                raise ValueError(f"motor defect {defect!r} is not one of limp, stuck, ok") from None
         request = pb.EvaluateRequest(
             config_xml=config_xml, world=world, morphology_xml=morphology_xml,
             parameters=[pb.ParameterValue(name=n, value=v) for n, v in items],
             warmup=warmup, duration=duration, seed=seed, trajectory_period=trajectory_period,
-            time_step=time_step)
+            time_step=time_step, motor_defects=defects,
+            module_defects=[pb.SetModuleDefectRequest(module_id=m, defective=True)
+                            for m in module_defects],
+            upside_down=upside_down)
+        if friction is not None:
+            request.ground.friction = friction
+        if slope is not None:
+            request.ground.slope = slope
+        if slope_direction is not None:
+            request.ground.slope_direction = slope_direction
         simulated = (warmup or 8.0) + (duration or 12.0)
         extra = simulated if math.isfinite(simulated) else 0.0
         r = self._call("Evaluate", request, timeout, extra)

@@ -104,26 +104,34 @@ class ElapsedTimeResponse(_message.Message):
     def __init__(self, seconds: _Optional[float] = ...) -> None: ...
 
 class EvaluateRequest(_message.Message):
-    __slots__ = ["config_xml", "duration", "morphology_xml", "parameters", "seed", "time_step", "trajectory_period", "warmup", "world"]
+    __slots__ = ["config_xml", "duration", "ground", "module_defects", "morphology_xml", "motor_defects", "parameters", "seed", "time_step", "trajectory_period", "upside_down", "warmup", "world"]
     CONFIG_XML_FIELD_NUMBER: _ClassVar[int]
     DURATION_FIELD_NUMBER: _ClassVar[int]
+    GROUND_FIELD_NUMBER: _ClassVar[int]
+    MODULE_DEFECTS_FIELD_NUMBER: _ClassVar[int]
     MORPHOLOGY_XML_FIELD_NUMBER: _ClassVar[int]
+    MOTOR_DEFECTS_FIELD_NUMBER: _ClassVar[int]
     PARAMETERS_FIELD_NUMBER: _ClassVar[int]
     SEED_FIELD_NUMBER: _ClassVar[int]
     TIME_STEP_FIELD_NUMBER: _ClassVar[int]
     TRAJECTORY_PERIOD_FIELD_NUMBER: _ClassVar[int]
+    UPSIDE_DOWN_FIELD_NUMBER: _ClassVar[int]
     WARMUP_FIELD_NUMBER: _ClassVar[int]
     WORLD_FIELD_NUMBER: _ClassVar[int]
     config_xml: str
     duration: float
+    ground: SetGroundRequest
+    module_defects: _containers.RepeatedCompositeFieldContainer[SetModuleDefectRequest]
     morphology_xml: str
+    motor_defects: _containers.RepeatedCompositeFieldContainer[SetMotorDefectRequest]
     parameters: _containers.RepeatedCompositeFieldContainer[ParameterValue]
     seed: int
     time_step: float
     trajectory_period: float
+    upside_down: bool
     warmup: float
     world: str
-    def __init__(self, config_xml: _Optional[str] = ..., world: _Optional[str] = ..., morphology_xml: _Optional[str] = ..., parameters: _Optional[_Iterable[_Union[ParameterValue, _Mapping]]] = ..., warmup: _Optional[float] = ..., duration: _Optional[float] = ..., seed: _Optional[int] = ..., trajectory_period: _Optional[float] = ..., time_step: _Optional[float] = ...) -> None: ...
+    def __init__(self, config_xml: _Optional[str] = ..., world: _Optional[str] = ..., morphology_xml: _Optional[str] = ..., parameters: _Optional[_Iterable[_Union[ParameterValue, _Mapping]]] = ..., warmup: _Optional[float] = ..., duration: _Optional[float] = ..., seed: _Optional[int] = ..., trajectory_period: _Optional[float] = ..., time_step: _Optional[float] = ..., motor_defects: _Optional[_Iterable[_Union[SetMotorDefectRequest, _Mapping]]] = ..., module_defects: _Optional[_Iterable[_Union[SetModuleDefectRequest, _Mapping]]] = ..., ground: _Optional[_Union[SetGroundRequest, _Mapping]] = ..., upside_down: bool = ...) -> None: ...
 
 class EvaluateResponse(_message.Message):
     __slots__ = ["distance", "diverged", "divergence", "final_pose", "trajectory", "velocity", "wall_seconds"]
