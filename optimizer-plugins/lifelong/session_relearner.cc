@@ -64,6 +64,15 @@ class TrialEvaluator final : public optimizer::Evaluator {
 // Copies the robot's condition into the pool's evaluation settings.
 void ApplyCondition(optimizer::EvaluationSettings& settings, const RobotCondition& condition) {
   settings.morphology_xml = condition.morphology_xml;
+  for (const auto& [id, kind] : condition.motor_defects) {
+    settings.motor_defects.emplace_back(
+        id, kind == "stuck" ? optimizer::MotorDefect::kStuck : optimizer::MotorDefect::kLimp);
+  }
+  settings.module_defects = condition.module_defects;
+  settings.ground_friction = condition.ground_friction;
+  settings.ground_slope = condition.ground_slope;
+  settings.ground_slope_direction = condition.ground_slope_direction;
+  settings.upside_down = condition.upside_down;
 }
 
 std::vector<std::pair<std::string, double>> Named(const optimizer::OptimizationConfig& config,

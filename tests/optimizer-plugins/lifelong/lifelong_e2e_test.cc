@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -198,6 +199,43 @@ defect = "limp"
   const auto gaits = db.All();
   ASSERT_EQ(gaits.size(), 2u);
   EXPECT_EQ(gaits[1].symptoms.defects, std::vector<std::string>{"motor 5 limp"});
+}
+
+TEST_F(LifelongE2eTest, ModelModeEvaluatesTheFaultyBodyInSimulationAndVerifiesOnTheRobot) {
+  const std::string scenario = Scenario("model", R"(world = "quadruped"
+[[change]]
+at = 12
+do = "motor_defect"
+module = 5
+defect = "limp"
+)");
+  const fs::path out = dir_ / "out";
+  std::string text;
+  ASSERT_EQ(Run(Args(scenario, out,
+                     {"--max-anomalies", "1", "--mode", "model", "--model-warmup", "1", "--model-duration", "2",
+                      "--verify", "2", "--set", "max_evaluations=4"}),
+                &text),
+            0)
+      << text;
+  ASSERT_EQ(Events(out, "relearned").size(), 1u) << Read(out / "events.jsonl");
+  const std::string relearned = Events(out, "relearned")[0];
+  EXPECT_EQ(Field(relearned, "evaluations"), "4");
+  EXPECT_EQ(Field(relearned, "trials"), "2");  // only the verifications are robot time
+  EXPECT_EQ(Field(Events(out, "relearn")[0], "mode"), "model");
+  GaitDatabase db((out / "gaits.sqlite").string(), false);
+  ASSERT_EQ(db.All().size(), 2u);
+  EXPECT_EQ(db.All()[1].origin, "model");
+  // The simulated evaluations are in the relearning's results; the timeline
+  // has the verifications only.
+  const std::string evaluations = Read(out / "relearn-1" / "evaluations.csv");
+  EXPECT_EQ(std::count(evaluations.begin(), evaluations.end(), '\n'), 5);  // header + 4
+  const std::string timeline = Read(out / "timeline.csv");
+  std::size_t verifications = 0;
+  for (auto at = timeline.find(",relearning,verify,"); at != std::string::npos;
+       at = timeline.find(",relearning,verify,", at + 1)) {
+    ++verifications;
+  }
+  EXPECT_EQ(verifications, 2u) << timeline;
 }
 
 TEST_F(LifelongE2eTest, AModuleDefectRebuildsTheNetworkWithoutIt) {
