@@ -33,6 +33,7 @@ import argparse
 import csv
 import json
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -471,8 +472,12 @@ def fig7_4(args, out: Path) -> Path:
             argv += ["--quiet", "--log-level", "warn"]
         print("reproduce: " + " ".join(argv), flush=True)
         log = folder / "yamor-lifelong.log"
+        # timeline.png is drawn with this interpreter (the one with matplotlib).
+        env = dict(os.environ)
+        env.setdefault("YAMOR_PYTHON", sys.executable)
         with open(log, "w") as f:
-            result = subprocess.run(argv, cwd=REPO, stdout=f, stderr=subprocess.STDOUT if args.quiet else None)
+            result = subprocess.run(argv, cwd=REPO, stdout=f, stderr=subprocess.STDOUT if args.quiet else None,
+                                    env=env)
         if result.returncode != 0:
             raise ToolError(f"yamor-lifelong exited with status {result.returncode}; see {log}")
     for name, dest in (("timeline.csv", "fig7-4.csv"), ("timeline.png", "fig7-4.png")):
