@@ -576,6 +576,7 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
   request.condition.ground_slope_direction = slope_direction_;
   request.condition.upside_down = orientation == Orientation::kUpsideDown;
   long long trials = 0;
+  const auto wall_start = std::chrono::steady_clock::now();
   const RelearnResult result = relearner_.Relearn(request, [&](const Trial& t) {
     last_robot_time_ = t.time;
     // Life ends at its time limit even in the middle of a relearning (its
@@ -591,6 +592,7 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
     }
     Row(t.time, t.velocity, t.verification ? "verify" : "");
   });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   last_robot_time_ = port_.Now();
   if (!result.ok) {
     if (result.error_code == static_cast<int>(StatusCode::kUnavailable) && !Stopping()) {
@@ -644,7 +646,8 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
          {"velocity", JsonNumber(result.velocity)},
          {"evaluations", JsonInt(result.evaluations)},
          {"trials", JsonInt(result.trials)},
-         {"robot_seconds", JsonNumber(result.robot_seconds)}});
+         {"robot_seconds", JsonNumber(result.robot_seconds)},
+         {"wall_seconds", JsonNumber(wall)}});
   current_ = Gait{.id = id,
                   .config_xml = result.config_xml,
                   .problem_xml = plan.problem_xml,
