@@ -213,6 +213,13 @@ void LifeCycle::Start(const InitialGait& initial) {
   const cpg::RobotConfig config = cpg::ParseConfigXml(initial.config_xml, initial.source);
   const std::string canonical = cpg::WriteConfigXml(config);
   port_.Walk(canonical);
+  // From rest the robot needs a while to reach its gait: one window more
+  // than after a gait change, so the first window does not set a low
+  // expectation.
+  port_.Settle(options_.settle_periods + options_.window_periods);
+  // What the daemon reported before this life (its setup, a previous
+  // client's changes) is history, not news.
+  port_.TakeEvents();
   auto [body, morphology_xml] = port_.Body();
   std::vector<int> ids;
   for (const auto& m : body.modules()) ids.push_back(m.id);
@@ -220,10 +227,6 @@ void LifeCycle::Start(const InitialGait& initial) {
     if (driven) driven_.insert(id);
   }
   const std::string key = cpg::MorphologyKey(WithKnownActivity(body, driven_, dead_));
-  // From rest the robot needs a while to reach its gait: one window more
-  // than after a gait change, so the first window does not set a low
-  // expectation.
-  port_.Settle(options_.settle_periods + options_.window_periods);
   last_robot_time_ = port_.Now();
   const AccelReading accel = port_.ReadAccelerometer();
   double norm = 0;

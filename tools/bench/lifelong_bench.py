@@ -35,10 +35,12 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures
+import contextlib
 import csv
 import json
 import os
 import queue
+import shutil
 import sqlite3
 import statistics
 import subprocess
@@ -71,19 +73,20 @@ def binaries(build: str) -> dict[str, Path]:
 
 
 class Hosts:
-    """A queue of daemons: each life takes one for itself."""
+    """A queue of daemons: each life takes one for itself (`with hosts.take() as host`)."""
 
     def __init__(self, hosts: list[str]):
         self._free: queue.Queue[str] = queue.Queue()
         for h in hosts:
             self._free.put(h)
 
-    def __enter__(self) -> str:
-        self.host = self._free.get()
-        return self.host
-
-    def __exit__(self, *exc) -> None:
-        self._free.put(self.host)
+    @contextlib.contextmanager
+    def take(self):
+        host = self._free.get()
+        try:
+            yield host
+        finally:
+            self._free.put(host)
 
 
 def read_events(folder: Path) -> list[dict]:
@@ -120,8 +123,10 @@ def scenario_copy(name: str, folder: Path, at: float | None = None, config: Path
 
 
 def live(bins, hosts: Hosts, scenario: Path, out: Path, extra: list[str]) -> dict:
-    """Runs one life; returns its events, timeline and wall time."""
-    with hosts as host:
+    """Runs one life in a fresh folder; returns its events, timeline and wall time."""
+    if out.exists():
+        shutil.rmtree(out)
+    with hosts.take() as host:
         argv = [str(bins["lifelong"]), "--host", host, "--scenario", str(scenario), "--out", str(out),
                 "--no-plot", "--quiet", "--log-level", "warn", *extra]
         started = time.monotonic()
