@@ -56,32 +56,30 @@ def plot(rows, png, title):
     fig, ax = plt.subplots(figsize=(10, 4.5))
     minutes = lambda r: r["time"] / 60.0  # noqa: E731
     measured = [r for r in rows if not math.isnan(r["velocity"])]
-    walking = [r for r in measured if r["state"] == "walking"]
-    # Walking windows as a line broken wherever something else happened.
-    segment = []
-    drawn = False
+    # Walking windows (and the stored velocity) as lines broken wherever
+    # something else happened.
+    segments, segment = [], []
     for r in rows:
         if r["state"] == "walking" and not math.isnan(r["velocity"]):
             segment.append(r)
-            continue
-        if segment:
-            ax.plot([minutes(s) for s in segment], [100 * s["velocity"] for s in segment],
-                    color="tab:blue", linewidth=1.5, label=None if drawn else "walking")
-            drawn = True
+        elif segment:
+            segments.append(segment)
             segment = []
     if segment:
-        ax.plot([minutes(s) for s in segment], [100 * s["velocity"] for s in segment],
-                color="tab:blue", linewidth=1.5, label=None if drawn else "walking")
+        segments.append(segment)
+    for k, seg in enumerate(segments):
+        ax.plot([minutes(s) for s in seg], [100 * s["velocity"] for s in seg], color="tab:blue",
+                linewidth=1.5, label="walking" if k == 0 else None)
+        ema = [s for s in seg if not math.isnan(s["ema"])]
+        if ema:
+            ax.plot([minutes(s) for s in ema], [100 * s["ema"] for s in ema], color="tab:green",
+                    linewidth=0.8, alpha=0.8, label="stored velocity (EMA)" if k == 0 else None)
     for state in ("recalling", "relearning"):
         points = [r for r in measured if r["state"] == state]
         if points:
             color, label = STATE_STYLE[state]
             ax.scatter([minutes(r) for r in points], [100 * r["velocity"] for r in points], s=10,
                        color=color, alpha=0.7, label=label)
-    ema = [r for r in walking if not math.isnan(r["ema"])]
-    if ema:
-        ax.plot([minutes(r) for r in ema], [100 * r["ema"] for r in ema], color="tab:green",
-                linewidth=0.8, alpha=0.8, label="stored velocity (EMA)")
     labelled = set()
     lost = None
     for r in rows:
