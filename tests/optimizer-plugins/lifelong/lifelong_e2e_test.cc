@@ -257,6 +257,29 @@ module = 5
   EXPECT_EQ(gaits[1].config_xml.find("<cpglink to=\"5\""), std::string::npos) << "no coupling to the dead module";
 }
 
+TEST_F(LifelongE2eTest, AnInsertedModuleGetsAnOscillatorInTheRebuiltNetwork) {
+  const std::string scenario = Scenario("insert", R"(world = ")" + kSource + R"(/configs/lifelong/quadruped-spare.xml"
+[[change]]
+at = 12
+do = "connect"
+module = 9
+to = 5
+)");
+  const fs::path out = dir_ / "out";
+  std::string text;
+  ASSERT_EQ(Run(Args(scenario, out, {"--max-anomalies", "1"}), &text), 0) << text;
+  EXPECT_EQ(Field(Events(out, "anomaly")[0], "trigger"), "module_connected");
+  EXPECT_EQ(Field(Events(out, "relearn")[0], "how"), "rebuilt");
+  GaitDatabase db((out / "gaits.sqlite").string(), false);
+  const auto gaits = db.All();
+  ASSERT_EQ(gaits.size(), 2u);
+  EXPECT_EQ(gaits[0].config_xml.find("realid=\"9\""), std::string::npos);
+  // Module 9 is configured, driven and coupled to knee 5.
+  EXPECT_NE(gaits[1].config_xml.find("<module realid=\"9\" amplitude=\""), std::string::npos) << gaits[1].config_xml;
+  EXPECT_EQ(gaits[1].config_xml.find("<module realid=\"9\" amplitude=\"0\""), std::string::npos) << gaits[1].config_xml;
+  EXPECT_NE(gaits[1].config_xml.find("<cpglink to=\"9\""), std::string::npos);
+}
+
 TEST_F(LifelongE2eTest, BackOnTheOldGroundTheOldGaitIsRecalledNotRelearned) {
   // Sticky ground: relearned. Back on the normal ground the sticky-ground gait
   // is much faster (relearn-on-increase makes that an anomaly) and the old
