@@ -30,6 +30,10 @@ void ValidateAnomalyOptions(const AnomalyOptions& options) {
     throw Error(StatusCode::kInvalidArgument,
                 "learning windows " + std::to_string(options.learn_windows) + " must be >= 1");
   }
+  if (options.increase_confirmations < 1) {
+    throw Error(StatusCode::kInvalidArgument, "increase confirmations " +
+                                                  std::to_string(options.increase_confirmations) + " must be >= 1");
+  }
   if (options.confirmations < 1) {
     throw Error(StatusCode::kInvalidArgument,
                 "anomaly confirmations " + std::to_string(options.confirmations) + " must be >= 1");
@@ -111,7 +115,12 @@ Observation AnomalyMonitor::Observe(double velocity) {
   const int sign = deviation < 0 ? -1 : 1;
   pending_ = (pending_sign_ == sign) ? pending_ + 1 : 1;
   pending_sign_ = sign;
-  if (pending_ < options_.confirmations) {
+  // A rise must last: one fast window is noise more often than a better
+  // ground, and taking it as the new level would make the next ordinary
+  // window look like a drop.
+  const int needed = sign < 0 ? options_.confirmations
+                              : std::max(options_.confirmations, options_.increase_confirmations);
+  if (pending_ < needed) {
     o.verdict = Verdict::kSuspect;
     o.ema = ema_;
     return o;

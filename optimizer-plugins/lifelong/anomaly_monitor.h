@@ -48,6 +48,9 @@ struct AnomalyOptions {
   /// (1: the thesis's rule, every such window). While fewer were seen the
   /// verdict is kSuspect and v is not updated.
   int confirmations = 1;
+  /// Consecutive windows above the band needed before an increase is
+  /// reported (at least `confirmations`): a single fast window is kept out.
+  int increase_confirmations = 2;
   /// WatchState event kinds that are physical changes (anomalies at once).
   std::set<std::string> physical_events = {"module_connected", "module_disconnected",
                                            "defect_set", "defect_cleared"};
@@ -55,7 +58,8 @@ struct AnomalyOptions {
 
 /// Checks `options` and throws yamor::Error kInvalidArgument naming the bad
 /// field (threshold <= 0 or not finite, smoothing outside [0, 1),
-/// min_reference < 0, noise_factor < 0, learn_windows < 1, confirmations < 1).
+/// min_reference < 0, noise_factor < 0, learn_windows < 1, confirmations or
+/// increase_confirmations < 1).
 void ValidateAnomalyOptions(const AnomalyOptions& options);
 
 /// What one observation meant.

@@ -139,6 +139,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--learn-windows", life.anomaly.learn_windows,
                  "Windows of a gait that only learn its velocity and noise")->capture_default_str();
+  app.add_option("--increase-confirmations", life.anomaly.increase_confirmations,
+                 "Consecutive faster windows before an increase counts")->capture_default_str();
   app.add_option("--confirmations", life.anomaly.confirmations,
                  "Consecutive out-of-band windows before an anomaly")->capture_default_str();
   app.add_option("--window-periods", life.window_periods, "CPG periods per measurement window")

@@ -12,8 +12,9 @@
 namespace yamor::lifelong {
 namespace {
 
-// The thesis's rule exactly: no noise floor, the first window initialises.
-AnomalyOptions Thesis() { return AnomalyOptions{.noise_factor = 0}; }
+// The thesis's rule exactly: no noise floor, the first window initialises,
+// one window beyond the band either way is a change.
+AnomalyOptions Thesis() { return AnomalyOptions{.noise_factor = 0, .increase_confirmations = 1}; }
 
 TEST(AnomalyMonitor, TheFirstWindowInitialises) {
   AnomalyMonitor m(Thesis());
@@ -69,10 +70,22 @@ TEST(AnomalyMonitor, AnIncreaseIsReportedNotAnAnomalyAndBecomesTheExpectation) {
 TEST(AnomalyMonitor, AnIncreaseIsAnAnomalyWhenConfigured) {
   AnomalyMonitor m({.increase_is_anomaly = true, .noise_factor = 0});
   m.Observe(0.05);
+  EXPECT_EQ(m.Observe(0.08).verdict, Verdict::kSuspect);  // by default a rise must last two windows
   const Observation o = m.Observe(0.08);
   EXPECT_EQ(o.verdict, Verdict::kIncreaseAnomaly);
   EXPECT_TRUE(IsAnomaly(o.verdict));
   EXPECT_DOUBLE_EQ(m.ema(), 0.05);
+}
+
+TEST(AnomalyMonitor, ASingleFastWindowIsNotTheNewLevel) {
+  AnomalyMonitor m({.noise_factor = 0});
+  m.Observe(0.05);
+  EXPECT_EQ(m.Observe(0.09).verdict, Verdict::kSuspect);
+  EXPECT_DOUBLE_EQ(m.ema(), 0.05);
+  EXPECT_EQ(m.Observe(0.05).verdict, Verdict::kNormal);  // no drop after the outlier
+  EXPECT_EQ(m.Observe(0.09).verdict, Verdict::kSuspect);
+  EXPECT_EQ(m.Observe(0.09).verdict, Verdict::kIncrease);
+  EXPECT_DOUBLE_EQ(m.ema(), 0.09);
 }
 
 TEST(AnomalyMonitor, AnAbsoluteThresholdDoesNotScaleWithTheVelocity) {
@@ -149,7 +162,8 @@ TEST(AnomalyMonitor, BadInputIsRefused) {
         AnomalyOptions{.threshold = std::numeric_limits<double>::infinity()},
         AnomalyOptions{.min_reference = -0.1}, AnomalyOptions{.smoothing = 1},
         AnomalyOptions{.smoothing = -0.1}, AnomalyOptions{.noise_factor = -1},
-        AnomalyOptions{.learn_windows = 0}, AnomalyOptions{.confirmations = 0}}) {
+        AnomalyOptions{.learn_windows = 0}, AnomalyOptions{.confirmations = 0},
+        AnomalyOptions{.increase_confirmations = 0}}) {
     try {
       AnomalyMonitor refused(bad);
       ADD_FAILURE() << "accepted";
