@@ -7,7 +7,7 @@ FUZZ_SMOKE_TIME ?= 10
 JOBS ?= $(shell nproc)
 PY := .venv/bin/python
 
-.PHONY: all deps configure build test test-unit test-py fuzz fuzz-build fuzz-smoke bench demo clean asan
+.PHONY: all deps configure build test test-unit test-py fuzz fuzz-build fuzz-smoke bench demo clean asan tsan
 
 all: build
 
@@ -37,6 +37,12 @@ test: test-unit test-py fuzz-smoke
 # (tests/CMakeLists.txt, times 4 under asan), so a hang fails in minutes.
 asan:
 	@$(MAKE) test-unit PRESET=asan
+
+# ThreadSanitizer over the unit and end-to-end suites (TSAN_OPTIONS in the
+# tsan test preset: halt at the first report; tools/tsan/suppressions.txt
+# holds third-party suppressions only, each with its reason).
+tsan:
+	@$(MAKE) test-unit PRESET=tsan
 
 fuzz-build: deps
 	@cmake --preset fuzz >/dev/null

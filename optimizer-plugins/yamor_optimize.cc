@@ -31,6 +31,7 @@
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/plugin_loader.h"
 #include "optimizer-plugins/framework/progress.h"
+#include "optimizer-plugins/framework/resume.h"
 #include "optimizer-plugins/framework/run_setup.h"
 #include "optimizer-plugins/framework/session.h"
 
@@ -132,6 +133,22 @@ void DrawProgress(const std::string& out_dir, const std::string& title) {
                FindPython(source_dir));
 }
 
+// The command line as a shell would take it back (run.toml's info.command).
+std::string CommandLine(int argc, char** argv) {
+  std::string line;
+  for (int i = 0; i < argc; ++i) {
+    std::string arg = argv[i];
+    if (arg.empty() || arg.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                             "0123456789_-.,:/=@+") != std::string::npos) {
+      std::string quoted = "'";
+      for (char c : arg) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      arg = quoted + "'";
+    }
+    line += (i == 0 ? "" : " ") + arg;
+  }
+  return line;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -141,6 +158,7 @@ int main(int argc, char** argv) {
       "Example: yamor-optimize --plugin powell --config configs/optimize/quadruped-7.xml "
       "--world quadruped --hosts 127.0.0.1:2224 --out results/run1"};
   std::string plugin_name, config_path, hosts_spec = "127.0.0.1:2224", out_dir, batch_path;
+  std::string resume_dir;
   std::string world, morphology_path, log_level = "info";
   std::vector<std::string> sets, plugin_dirs;
   std::uint64_t seed = 1, eval_seed = 0;
@@ -152,7 +170,9 @@ int main(int argc, char** argv) {
   app.add_option("--plugin", plugin_name, "Plugin name (NAME.so in the plugin folders) or path to a .so");
   app.add_option("--plugin-dir", plugin_dirs, "Extra folder to look for plugins in (before the defaults)");
   app.add_option("--config", config_path, "Optimization configuration (robot + optimize/constrain rules)");
-  app.add_option("--hosts", hosts_spec, "yamord hosts: H:P,H:P or @FILE (one per line)")->capture_default_str();
+  app.add_option("--hosts", hosts_spec,
+                 "yamord hosts: H:P,H:P or @FILE (one per line; re-read when it changes)")
+      ->capture_default_str();
   app.add_option("--world", world, "Built-in world (morphology) the daemons simulate, e.g. quadruped; "
                                    "default: each daemon's own world");
   app.add_option("--morphology", morphology_path, "Morphology XML file sent to the daemons (overrides --world)");
@@ -175,6 +195,9 @@ int main(int argc, char** argv) {
   app.add_option("--live-sample-interval", live_options.sample_interval,
                  "--live: robot seconds between position samples")->capture_default_str();
   app.add_option("--out", out_dir, "Results folder (evaluations.csv, best.xml, summary.json, progress.png)");
+  app.add_option("--resume", resume_dir,
+                 "Continue the killed run recorded in this results folder (same arguments; "
+                 "recorded evaluations are not run again)");
   app.add_flag("--no-plot", no_plot, "Do not draw progress.png");
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
@@ -188,6 +211,17 @@ int main(int argc, char** argv) {
 
     if (plugin_name.empty()) throw Error(StatusCode::kInvalidArgument, "--plugin is required (see --list-plugins)");
     if (config_path.empty()) throw Error(StatusCode::kInvalidArgument, "--config is required");
+    if (!resume_dir.empty()) {
+      if (!out_dir.empty() && fs::path(out_dir).lexically_normal() !=
+                                  fs::path(resume_dir).lexically_normal()) {
+        throw Error(StatusCode::kInvalidArgument,
+                    "--out " + out_dir + " and --resume " + resume_dir + " name different folders");
+      }
+      if (!fs::is_directory(resume_dir)) {
+        throw Error(StatusCode::kNotFound, "--resume " + resume_dir + ": no such results folder");
+      }
+      out_dir = resume_dir;
+    }
     if (out_dir.empty()) throw Error(StatusCode::kInvalidArgument, "--out is required");
     if (!(warmup >= 0 && duration > 0)) {
       throw Error(StatusCode::kInvalidArgument, "--warmup must be >= 0 and --duration > 0");
@@ -251,6 +285,7 @@ int main(int argc, char** argv) {
 
     // The evaluator: a pool of simulating hosts, or one live robot.
     std::unique_ptr<HostPool> pool;
+    std::unique_ptr<HostListWatcher> host_file;
     std::unique_ptr<LiveEvaluator> live_evaluator;
     Evaluator* evaluator = nullptr;
     std::string evaluator_description;
@@ -280,6 +315,18 @@ int main(int argc, char** argv) {
       for (const auto& status : pool->Status()) up += status.up ? 1 : 0;
       evaluator_line = std::to_string(up) + "/" + std::to_string(hosts.size()) +
                        " hosts up (capacity " + std::to_string(pool->Capacity()) + ")";
+      // --hosts @FILE follows the file: hosts added join, hosts removed drain.
+      if (hosts_spec.front() == '@') {
+        host_file = std::make_unique<HostListWatcher>(hosts_spec.substr(1), *pool);
+      }
+    }
+    // What the evaluations depend on besides the plugin (run.toml; --resume).
+    RunIdentity identity = EvaluationIdentity(config, settings);
+    if (live) {
+      identity["evaluation"] = "live " + live_spec +
+                               " settle_periods=" + FormatDouble(live_options.settle_periods) +
+                               " measure_periods=" + FormatDouble(live_options.measure_periods) +
+                               " sample_interval=" + FormatDouble(live_options.sample_interval);
     }
 
     // Field values are validated for every instance before any host works.
@@ -294,7 +341,8 @@ int main(int argc, char** argv) {
           plugin, problem, *evaluator,
           SessionOptions{.label = instance.name, .seed = instance.seed, .set = instance_set,
                          .out_dir = dir, .evaluator_description = evaluator_description,
-                         .live = live}));
+                         .live = live, .resume = !resume_dir.empty(), .identity = identity,
+                         .info = {{"command", CommandLine(argc, argv)}}}));
     }
     std::cerr << "yamor-optimize: " << plugin.name() << " " << plugin.version() << " on "
               << config.optimized().size() << " parameters of " << config_path << "; "

@@ -461,11 +461,13 @@ struct World::Impl {
       const double angle = ServoAngleOf(m);
       double velocity = 0;
       double torque = s.limp_friction;
-      if (m.defect || !m.motor_on || m.fault == MotorFault::kLimp) {
-        // Unpowered: only the gearbox friction resists.
-      } else if (m.fault == MotorFault::kStuck) {
+      if (m.fault == MotorFault::kStuck) {
+        // A jammed gearbox holds with or without power (the driver switches a
+        // defective motor off, and a dead module's gears stay jammed too).
         velocity = s.lock_gain * (m.stuck_angle - angle);
         torque = s.lock_torque;
+      } else if (m.defect || !m.motor_on || m.fault == MotorFault::kLimp) {
+        // Unpowered: only the gearbox friction resists.
       } else {
         velocity = std::clamp(s.gain * (m.target - angle), -s.max_speed, s.max_speed);
         torque = s.stall_torque;

@@ -5,6 +5,7 @@
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <spdlog/fmt/fmt.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <chrono>
@@ -223,6 +224,7 @@ struct HostPool::Impl {
     std::unique_ptr<grpc::GenericStub> generic;
 
     bool up = false;                       // guarded by mu_
+    bool removed = false;                  // draining: no new work; guarded by mu_
     bool probing = false;                  // guarded by mu_
     bool checked = false;                  // first health check finished; guarded by mu_
     int capacity = 0;                      // guarded by mu_
@@ -242,6 +244,7 @@ struct HostPool::Impl {
   void RequestStop();
   int Capacity() const;
   std::vector<HostStatus> Status() const;
+  void SetHosts(std::vector<HostAddress> addresses);
 
  private:
   using CallList = std::vector<std::shared_ptr<Call>>;
@@ -266,6 +269,12 @@ struct HostPool::Impl {
   // calling pool thread; `lock` holds mu_ and is released meanwhile.
   void ReapLocked(std::unique_lock<std::mutex>& lock);
 
+  // A host with its channel and stubs (no lock needed: touches no pool state).
+  std::unique_ptr<HostState> MakeHost(HostAddress address) const;
+  // Drops the drained hosts (removed, nothing in flight, no check running)
+  // on the calling pool thread; `lock` holds mu_ and is released meanwhile.
+  void ReapHostsLocked(std::unique_lock<std::mutex>& lock);
+
   void HostFailedLocked(HostState& host, const std::string& error, Work failed, CallList& cancel);
   void MarkDownLocked(HostState& host, const std::string& error, bool from_check);
   void FinishBatchLocked(Batch& batch, Error error, CallList& cancel);
@@ -276,7 +285,10 @@ struct HostPool::Impl {
   const PoolOptions options_;
   v1::EvaluateRequest base_request_;
   double deadline_seconds_ = 0;
-  std::vector<std::unique_ptr<HostState>> hosts_;  // fixed after construction
+  // Members and draining hosts, in the order they joined. Guarded by mu_
+  // (the constructor fills it before the supervisor starts); a HostState is
+  // destroyed only on a pool thread once nothing refers to it.
+  std::vector<std::unique_ptr<HostState>> hosts_;
 
   mutable std::mutex mu_;
   std::condition_variable cv_;  // any state change below
@@ -373,18 +385,10 @@ HostPool::Impl::Impl(std::vector<HostAddress> addresses, EvaluationSettings sett
   const Clock::time_point now = Clock::now();
   std::set<std::string> names;
   for (HostAddress& address : addresses) {
-    auto host = std::make_unique<HostState>();
-    host->name = address.ToString();
-    if (!names.insert(host->name).second) {
-      throw Error(StatusCode::kInvalidArgument, "duplicate host " + host->name);
+    if (!names.insert(address.ToString()).second) {
+      throw Error(StatusCode::kInvalidArgument, "duplicate host " + address.ToString());
     }
-    host->address = std::move(address);
-    // Our own backoff decides when to retry a host.
-    host->channel = MakeHostChannel(host->name, options_.retry_initial, options_.retry_max);
-    host->stub = v1::Host::NewStub(host->channel);
-    host->generic = std::make_unique<grpc::GenericStub>(host->channel);
-    host->next_check = now;
-    hosts_.push_back(std::move(host));
+    hosts_.push_back(MakeHost(std::move(address)));
   }
   all_down_since_ = now;
   supervisor_ = std::thread([this] { Supervise(); });
@@ -395,6 +399,91 @@ HostPool::Impl::Impl(std::vector<HostAddress> addresses, EvaluationSettings sett
   cv_.wait_for(lock, Seconds(2 * options_.health_timeout + 5), [this] {
     return std::all_of(hosts_.begin(), hosts_.end(), [](const auto& h) { return h->checked; });
   });
+}
+
+std::unique_ptr<HostPool::Impl::HostState> HostPool::Impl::MakeHost(HostAddress address) const {
+  auto host = std::make_unique<HostState>();
+  host->name = address.ToString();
+  host->address = std::move(address);
+  // Our own backoff decides when to retry a host.
+  host->channel = MakeHostChannel(host->name, options_.retry_initial, options_.retry_max);
+  host->stub = v1::Host::NewStub(host->channel);
+  host->generic = std::make_unique<grpc::GenericStub>(host->channel);
+  host->next_check = Clock::now();
+  return host;
+}
+
+void HostPool::Impl::SetHosts(std::vector<HostAddress> addresses) {
+  if (addresses.empty()) {
+    throw Error(StatusCode::kInvalidArgument, "the host pool needs a host");
+  }
+  std::set<std::string> names;
+  for (const HostAddress& address : addresses) {
+    if (!names.insert(address.ToString()).second) {
+      throw Error(StatusCode::kInvalidArgument, "duplicate host " + address.ToString());
+    }
+  }
+  std::vector<HostAddress> joining;
+  {
+    std::lock_guard lock(mu_);
+    for (HostAddress& address : addresses) {
+      const std::string name = address.ToString();
+      if (std::none_of(hosts_.begin(), hosts_.end(),
+                       [&](const auto& h) { return h->name == name; })) {
+        joining.push_back(std::move(address));
+      }
+    }
+  }
+  // Channels are made outside the lock; one lost to a concurrent SetHosts
+  // is dropped here, on the caller's thread.
+  std::vector<std::unique_ptr<HostState>> fresh;
+  for (HostAddress& address : joining) fresh.push_back(MakeHost(std::move(address)));
+  {
+    std::lock_guard lock(mu_);
+    if (shutting_down_) return;
+    const bool any_up = UpCountLocked() > 0;
+    for (const auto& host : hosts_) {
+      const bool removed = names.count(host->name) == 0;
+      if (removed == host->removed) continue;
+      host->removed = removed;
+      if (removed) {
+        Log().info("host {} removed from the list: draining ({} evaluations in flight)",
+                   host->name, host->in_flight);
+      } else {
+        Log().info("host {} listed again", host->name);
+      }
+    }
+    for (auto& host : fresh) {
+      if (std::any_of(hosts_.begin(), hosts_.end(),
+                      [&](const auto& h) { return h->name == host->name; })) {
+        continue;
+      }
+      Log().info("host {} added to the list: checking it", host->name);
+      hosts_.push_back(std::move(host));
+    }
+    if (any_up && UpCountLocked() == 0) all_down_since_ = Clock::now();
+    cv_.notify_all();
+  }
+  Pump();  // a host listed again may have free slots at once
+}
+
+void HostPool::Impl::ReapHostsLocked(std::unique_lock<std::mutex>& lock) {
+  std::vector<std::unique_ptr<HostState>> drained;
+  for (auto it = hosts_.begin(); it != hosts_.end();) {
+    HostState& host = **it;
+    if (host.removed && host.in_flight == 0 && !host.probing) {
+      Log().info("host {} drained and left the pool ({} evaluations done)", host.name,
+                 host.completed);
+      drained.push_back(std::move(*it));
+      it = hosts_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  if (drained.empty()) return;
+  lock.unlock();
+  drained.clear();  // channels and stubs end on this pool thread
+  lock.lock();
 }
 
 HostPool::Impl::~Impl() {
@@ -459,7 +548,10 @@ std::vector<Evaluation> HostPool::Impl::EvaluateBatch(const std::vector<Candidat
   CallList cancel;
   std::unique_lock lock(mu_);
   while (!batch->error && batch->remaining > 0) {
-    if (UpCountLocked() > 0) {
+    // A draining host still finishing evaluations is progress too.
+    if (UpCountLocked() > 0 ||
+        std::any_of(hosts_.begin(), hosts_.end(),
+                    [](const auto& h) { return h->removed && h->up && h->in_flight > 0; })) {
       cv_.wait(lock);
       continue;
     }
@@ -504,7 +596,7 @@ int HostPool::Impl::Capacity() const {
   std::lock_guard lock(mu_);
   int capacity = 0;
   for (const auto& host : hosts_) {
-    if (host->up) capacity += host->capacity;
+    if (host->up && !host->removed) capacity += host->capacity;
   }
   return std::max(1, capacity);
 }
@@ -519,7 +611,8 @@ std::vector<HostStatus> HostPool::Impl::Status() const {
                              .in_flight = host->in_flight,
                              .completed = host->completed,
                              .failures = host->failures,
-                             .last_error = host->last_error});
+                             .last_error = host->last_error,
+                             .draining = host->removed});
   }
   return out;
 }
@@ -534,7 +627,7 @@ HostPool::Impl::HostState* HostPool::Impl::PickHostLocked() {
   for (std::size_t k = 0; k < hosts_.size(); ++k) {
     const std::size_t i = (next_host_ + k) % hosts_.size();
     HostState& host = *hosts_[i];
-    const int free = host.up ? host.capacity - host.in_flight : 0;
+    const int free = host.up && !host.removed ? host.capacity - host.in_flight : 0;
     if (free > best_free) {
       best = &host;
       best_free = free;
@@ -740,8 +833,8 @@ void HostPool::Impl::FinishBatchLocked(Batch& batch, Error error, CallList& canc
 }
 
 int HostPool::Impl::UpCountLocked() const {
-  return static_cast<int>(
-      std::count_if(hosts_.begin(), hosts_.end(), [](const auto& h) { return h->up; }));
+  return static_cast<int>(std::count_if(hosts_.begin(), hosts_.end(),
+                                       [](const auto& h) { return h->up && !h->removed; }));
 }
 
 double HostPool::Impl::BackoffSeconds(int failures) const {
@@ -757,11 +850,13 @@ void HostPool::Impl::Supervise() {
   while (!shutting_down_) {
     ReapLocked(lock);
     if (shutting_down_) break;
+    ReapHostsLocked(lock);
+    if (shutting_down_) break;
     const Clock::time_point now = Clock::now();
     std::vector<Probe*> start;
     std::optional<Clock::time_point> wake;
     for (const auto& host : hosts_) {
-      if (host->up || host->probing) continue;
+      if (host->up || host->probing || host->removed) continue;
       if (host->next_check <= now) {
         auto probe = std::make_shared<Probe>();
         probe->host = host.get();
@@ -831,7 +926,7 @@ void HostPool::Impl::FinishProbe(Probe* probe, bool ok, int capacity, const std:
     std::lock_guard lock(mu_);
     HostState& host = *probe->host;
     host.probing = false;
-    if (!shutting_down_) {
+    if (!shutting_down_ && !host.removed) {
       if (ok) {
         host.up = true;
         host.capacity = std::max(1, capacity);
@@ -865,5 +960,105 @@ void HostPool::RequestStop() { impl_->RequestStop(); }
 int HostPool::Capacity() const { return impl_->Capacity(); }
 
 std::vector<HostStatus> HostPool::Status() const { return impl_->Status(); }
+
+void HostPool::SetHosts(std::vector<HostAddress> hosts) { impl_->SetHosts(std::move(hosts)); }
+
+// ---- HostListWatcher -------------------------------------------------------------------
+
+// Shared by the watcher and its thread. Thread safety: guarded by mu.
+struct HostListWatcher::State {
+  std::mutex mu;
+  std::condition_variable cv;
+  bool stop = false;
+  long long applied = 0;
+};
+
+namespace {
+
+// What changes when a file is rewritten in place or replaced by a rename.
+struct FileSignature {
+  bool exists = false;
+  std::int64_t mtime_ns = 0;
+  std::int64_t size = 0;
+  std::uint64_t inode = 0;
+  bool operator==(const FileSignature&) const = default;
+};
+
+FileSignature SignatureOf(const std::string& path) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) return {};
+  return FileSignature{.exists = true,
+                       .mtime_ns = static_cast<std::int64_t>(info.st_mtim.tv_sec) * 1000000000 +
+                                   info.st_mtim.tv_nsec,
+                       .size = static_cast<std::int64_t>(info.st_size),
+                       .inode = static_cast<std::uint64_t>(info.st_ino)};
+}
+
+}  // namespace
+
+HostListWatcher::HostListWatcher(std::string path, HostPool& pool, double poll_seconds)
+    : state_(std::make_shared<State>()) {
+  if (!(poll_seconds > 0) || !std::isfinite(poll_seconds)) {
+    throw Error(StatusCode::kInvalidArgument,
+                fmt::format("host list poll interval must be > 0 s, got {}", poll_seconds));
+  }
+  // Nothing counts as applied yet: the first settled poll reads the file and
+  // changes the pool only if the file no longer lists the pool's hosts (it
+  // may have changed since the pool read it).
+  const FileSignature start = SignatureOf(path);
+  std::vector<std::string> current;
+  for (const HostStatus& s : pool.Status()) {
+    if (!s.draining) current.push_back(s.address.ToString());
+  }
+  std::sort(current.begin(), current.end());
+  thread_ = std::thread([state = state_, path = std::move(path), pool = &pool, poll_seconds,
+                         previous = start, current = std::move(current)]() mutable {
+    FileSignature applied;
+    std::unique_lock lock(state->mu);
+    while (!state->stop) {
+      state->cv.wait_for(lock, Seconds(poll_seconds), [&] { return state->stop; });
+      if (state->stop) break;
+      lock.unlock();
+      const FileSignature now = SignatureOf(path);
+      // Apply a change once it held still for a poll: an editor writing in
+      // place is not read half-way.
+      const bool settled = now == previous && !(now == applied);
+      previous = now;
+      if (settled) {
+        applied = now;
+        try {
+          std::vector<HostAddress> hosts = ParseHosts("@" + path);
+          std::vector<std::string> names;
+          for (const HostAddress& h : hosts) names.push_back(h.ToString());
+          std::sort(names.begin(), names.end());
+          if (names != current) {
+            Log().info("host list {} changed: {} hosts", path, names.size());
+            pool->SetHosts(std::move(hosts));
+            current = std::move(names);
+            std::lock_guard count(state->mu);
+            ++state->applied;
+          }
+        } catch (const std::exception& e) {
+          Log().warn("host list {} not applied ({}); keeping the current hosts", path, e.what());
+        }
+      }
+      lock.lock();
+    }
+  });
+}
+
+HostListWatcher::~HostListWatcher() {
+  {
+    std::lock_guard lock(state_->mu);
+    state_->stop = true;
+  }
+  state_->cv.notify_all();
+  thread_.join();
+}
+
+long long HostListWatcher::Applied() const {
+  std::lock_guard lock(state_->mu);
+  return state_->applied;
+}
 
 }  // namespace yamor::optimizer

@@ -4,6 +4,7 @@
 // at once. A host that fails (it died, timed out, is overloaded) is marked
 // down, its evaluations go back to the front of the queue for the others,
 // and it is health-checked again with exponential backoff until it answers.
+// The membership may change while batches run (SetHosts, HostListWatcher).
 #pragma once
 
 #include <cstdint>
@@ -11,6 +12,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <thread>
 #include <vector>
 
 #include "optimizer-plugins/framework/evaluator.h"
@@ -89,6 +91,9 @@ struct HostStatus {
   /// Times it was marked down after an Evaluate failure, plus failed health checks.
   long long failures = 0;
   std::string last_error;  ///< Text of the last failure ("" if none).
+  /// Removed from the list (SetHosts): takes no new work, finishes what it
+  /// runs, then leaves Status().
+  bool draining = false;
 };
 
 /// Runs evaluations on yamord hosts over gRPC.
@@ -107,6 +112,12 @@ struct HostStatus {
 /// FAILED_PRECONDITION are caller errors: EvaluateBatch throws that code with
 /// the host's message, naming the candidate, without retrying. Every slot of
 /// a batch is filled exactly once.
+///
+/// The membership can change while batches run: SetHosts adds hosts (used
+/// once they pass a health check) and drains removed ones (no new work; the
+/// evaluations they run finish there, or are re-queued if the host fails;
+/// then the host is dropped), so a membership change loses and repeats no
+/// evaluation.
 ///
 /// Thread safety: every public method may be called from any thread at any
 /// time; concurrent EvaluateBatch calls share the hosts in FIFO order. The
@@ -135,12 +146,46 @@ class HostPool final : public Evaluator {
   /// Sum of the capacities of the hosts that are up (at least 1).
   int Capacity() const override;
 
-  /// One snapshot per host, in construction order.
+  /// One snapshot per host (draining ones included), in the order they
+  /// joined.
   std::vector<HostStatus> Status() const;
+
+  /// Makes `hosts` the membership: hosts not in the pool join after a
+  /// health check (checked in the background; this does not wait), hosts
+  /// not in `hosts` drain, draining hosts listed again are kept. Throws
+  /// kInvalidArgument for an empty or duplicated list (nothing changes).
+  void SetHosts(std::vector<HostAddress> hosts);
 
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+};
+
+/// Follows a host file (`--hosts @FILE`): polls its modification time, size
+/// and inode every `poll_seconds`, and once a change has held still for one
+/// poll (a file being written is not read half-way) re-reads it with
+/// ParseHosts and applies it with HostPool::SetHosts. A file that cannot be
+/// read or parsed is logged and the membership kept.
+///
+/// Thread safety: one background thread; the destructor stops it. The pool
+/// must outlive the watcher.
+class HostListWatcher {
+ public:
+  /// Starts following `path` (without '@') for `pool`; the file as read now
+  /// is taken as already applied.
+  HostListWatcher(std::string path, HostPool& pool, double poll_seconds = 0.5);
+  /// Stops the thread.
+  ~HostListWatcher();
+  HostListWatcher(const HostListWatcher&) = delete;
+  HostListWatcher& operator=(const HostListWatcher&) = delete;
+
+  /// Host lists applied since the start.
+  long long Applied() const;
+
+ private:
+  struct State;
+  std::shared_ptr<State> state_;
+  std::thread thread_;
 };
 
 }  // namespace yamor::optimizer

@@ -1,6 +1,7 @@
 #include "optimizer-plugins/framework/run_setup.h"
 
 #include <algorithm>
+#include <fstream>
 #include <set>
 #include <sstream>
 
@@ -55,9 +56,18 @@ Problem MakeProblem(const OptimizationConfig& config) {
 }
 
 std::vector<BatchInstance> LoadBatchFile(const std::string& path, std::uint64_t default_seed) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(StatusCode::kNotFound, "cannot read batch file " + path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return ParseBatchToml(text.str(), path, default_seed);
+}
+
+std::vector<BatchInstance> ParseBatchToml(std::string_view text, const std::string& path,
+                                          std::uint64_t default_seed) {
   toml::table root;
   try {
-    root = toml::parse_file(path);
+    root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
     throw Error(StatusCode::kInvalidArgument,
                 path + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
@@ -104,6 +114,11 @@ std::vector<BatchInstance> LoadBatchFile(const std::string& path, std::uint64_t 
           throw Error(StatusCode::kInvalidArgument, Where(path, value) + ": set must be a table");
         }
         for (const auto& [field, field_value] : *set) {
+          if (field.str().empty()) {
+            // `"" = 1` is valid TOML but names no field (batch_fuzzer's check).
+            throw Error(StatusCode::kInvalidArgument,
+                        Where(path, field_value) + ": set has an empty field name");
+          }
           instance.set[std::string(field.str())] = ValueText(path, std::string(field.str()), field_value);
         }
       } else {

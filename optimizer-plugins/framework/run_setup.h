@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "optimizer-plugins/framework/optimization_config.h"
@@ -31,7 +32,12 @@ struct BatchInstance {
 ///   seed = 1                # optional; default: --seed + instance number
 ///   [instance.set]          # optional field values (strings, numbers, booleans)
 ///   max_evaluations = 300
-/// Throws kInvalidArgument naming the file, line and key.
+/// Throws kInvalidArgument naming the file, line and key, kNotFound when
+/// the file cannot be read.
 std::vector<BatchInstance> LoadBatchFile(const std::string& path, std::uint64_t default_seed);
+
+/// As LoadBatchFile, from the file's text; `source` names it in errors.
+std::vector<BatchInstance> ParseBatchToml(std::string_view text, const std::string& source,
+                                          std::uint64_t default_seed);
 
 }  // namespace yamor::optimizer

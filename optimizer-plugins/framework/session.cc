@@ -148,6 +148,93 @@ Session::Session(const LoadedPlugin& plugin, const Problem& problem, Evaluator& 
   }
   fields_ = ResolveFieldValues(plugin_, options_.set);
   budget_ = std::stoll(fields_.at(kMaxEvaluationsField));
+  if (options_.resume && !options_.out_dir.empty()) LoadRecord();
+}
+
+RunIdentity Session::Identity() const {
+  RunIdentity identity = options_.identity;
+  identity["plugin"] = plugin_.name() + " " + plugin_.version();
+  if (!plugin_.path().empty()) {
+    try {
+      identity["plugin_file"] = FileFingerprint(plugin_.path());
+    } catch (const Error&) {
+      identity["plugin_file"] = "unreadable";
+    }
+  }
+  identity["seed"] = std::to_string(options_.seed);
+  for (const auto& [name, value] : fields_) identity["field." + name] = value;
+  std::string parameters;
+  for (const ProblemParameter& p : problem_.parameters) {
+    parameters += (parameters.empty() ? "" : "; ") + p.name + " in [" + FormatDouble(p.min) +
+                  ", " + FormatDouble(p.max) + "] from " + FormatDouble(p.start);
+  }
+  identity["parameters"] = parameters;
+  return identity;
+}
+
+void Session::LoadRecord() {
+  const fs::path dir(options_.out_dir);
+  const std::string run_path = (dir / "run.toml").string();
+  const std::string csv_path = (dir / "evaluations.csv").string();
+  std::error_code ec;
+  if (!fs::exists(run_path, ec)) {
+    if (fs::exists(csv_path, ec) && fs::file_size(csv_path, ec) > 0) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  "cannot resume " + options_.out_dir +
+                      ": it holds evaluations.csv but no run.toml (a folder of an older "
+                      "yamor-optimize, or no results folder), so the run cannot be checked");
+    }
+    Log().info("[{}] {}: nothing recorded yet; starting the run", options_.label,
+               options_.out_dir);
+    return;
+  }
+  std::map<std::string, std::string> info;
+  const RunIdentity recorded = ReadRunFile(run_path, &info);
+  const std::string differences = IdentityDifferences(recorded, Identity());
+  if (!differences.empty()) {
+    std::string message = "cannot resume " + options_.out_dir +
+                          ": this is not the recorded run (" + differences + ")";
+    if (const auto it = info.find("command"); it != info.end()) {
+      message += "; it was started as: " + it->second;
+    }
+    throw Error(StatusCode::kFailedPrecondition, message);
+  }
+  replay_has_run_file_ = true;
+  EvaluationRecordFile record = ReadEvaluationRecord(csv_path);
+  if (static_cast<long long>(record.rows.size()) > budget_) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "cannot resume " + options_.out_dir + ": evaluations.csv holds " +
+                    std::to_string(record.rows.size()) + " evaluations, more than the budget " +
+                    std::to_string(budget_));
+  }
+  replay_ = std::move(record.rows);
+  replay_columns_ = std::move(record.columns);
+  replay_valid_bytes_ = record.valid_bytes;
+  replay_torn_ = record.torn;
+  replay_torn_reason_ = record.torn_reason;
+}
+
+std::string Session::CheckRecorded(const Candidate& candidate,
+                                   const RecordedEvaluation& row) const {
+  bool same = candidate.parameters.size() == replay_columns_.size() &&
+              row.values.size() == replay_columns_.size();
+  for (std::size_t i = 0; same && i < replay_columns_.size(); ++i) {
+    same = candidate.parameters[i].first == replay_columns_[i] &&
+           candidate.parameters[i].second == row.values[i];
+  }
+  if (same) return "";
+  std::string asked;
+  for (const auto& [name, value] : candidate.parameters) {
+    asked += (asked.empty() ? "" : ", ") + name + "=" + FormatDouble(value);
+  }
+  std::string recorded;
+  for (std::size_t i = 0; i < replay_columns_.size() && i < row.values.size(); ++i) {
+    recorded += (recorded.empty() ? "" : ", ") + replay_columns_[i] + "=" +
+                FormatDouble(row.values[i]);
+  }
+  return "resuming: evaluation " + std::to_string(row.index) + " asks for {" + asked +
+         "} but evaluations.csv recorded {" + recorded +
+         "}: the run does not follow its record (is the plugin deterministic for its seed?)";
 }
 
 Session::~Session() = default;
@@ -193,9 +280,33 @@ int32_t Session::EvaluatePoints(const double* points, std::size_t count, double*
     last_error_ = std::string("cannot build the candidate: ") + e.what();
     return YAMOR_FAILED;
   }
-  std::vector<Evaluation> results;
+  // Resuming: the first requests are answered from the record.
+  std::vector<Evaluation> results(allowed);
+  std::size_t replayed = 0;
+  std::size_t first = 0;
+  {
+    std::lock_guard lock(mu_);
+    first = records_.size();
+  }
+  while (replayed < allowed && first + replayed < replay_.size()) {
+    const RecordedEvaluation& row = replay_[first + replayed];
+    if (const std::string why = CheckRecorded(batch[replayed], row); !why.empty()) {
+      last_error_ = why;
+      return YAMOR_FAILED;
+    }
+    results[replayed] = row.evaluation;
+    ++replayed;
+  }
   try {
-    results = evaluator_.EvaluateBatch(batch);
+    if (replayed < allowed) {
+      const std::vector<Candidate> fresh(batch.begin() + static_cast<std::ptrdiff_t>(replayed),
+                                         batch.end());
+      std::vector<Evaluation> evaluated = evaluator_.EvaluateBatch(fresh);
+      YAMOR_CHECK(evaluated.size() == fresh.size(),
+                  "an evaluator returned a result per candidate");
+      std::move(evaluated.begin(), evaluated.end(),
+                results.begin() + static_cast<std::ptrdiff_t>(replayed));
+    }
   } catch (const Error& e) {
     if (e.code() == StatusCode::kCancelled) return YAMOR_STOPPED;
     last_error_ = std::string(StatusCodeName(e.code())) + ": " + e.what();
@@ -204,21 +315,20 @@ int32_t Session::EvaluatePoints(const double* points, std::size_t count, double*
     last_error_ = e.what();
     return YAMOR_FAILED;
   }
-  YAMOR_CHECK(results.size() == batch.size(), "an evaluator returned a result per candidate");
   for (std::size_t k = 0; k < results.size(); ++k) {
     if (!std::isfinite(results[k].velocity)) {
       last_error_ = "evaluation of candidate " + std::to_string(k) + " returned a non-finite value";
       return YAMOR_FAILED;
     }
   }
-  Record(batch_points, batch, results, values);
+  Record(batch_points, batch, results, values, replayed);
   if (evaluated != nullptr) *evaluated = allowed;
   return allowed < count ? YAMOR_STOPPED : YAMOR_OK;
 }
 
 void Session::Record(const std::vector<std::vector<double>>& points,
                      const std::vector<Candidate>& batch, const std::vector<Evaluation>& results,
-                     double* values) {
+                     double* values, std::size_t replayed) {
   std::vector<double> improved;
   {
     std::lock_guard lock(mu_);
@@ -235,7 +345,7 @@ void Session::Record(const std::vector<std::vector<double>>& points,
         best_.best_point = points[k];
         improved = points[k];
       }
-      if (csv_.is_open()) {
+      if (csv_.is_open() && k >= replayed) {  // recorded rows are in the file already
         if (csv_columns_.empty()) {
           csv_ << "index";
           for (const auto& [name, value] : batch[k].parameters) {
@@ -281,8 +391,26 @@ SessionResult Session::Run() {
     fs::create_directories(options_.out_dir, ec);
     if (ec) throw Error(StatusCode::kInvalidArgument, "cannot create results folder " + options_.out_dir + ": " + ec.message());
     const std::string csv_path = (fs::path(options_.out_dir) / "evaluations.csv").string();
+    const bool append = replay_has_run_file_ && replay_valid_bytes_ > 0;
+    if (append) {
+      if (replay_torn_) {
+        // A kill mid-write leaves a partial last line: cut it off so the
+        // file ends as if the run had never stopped.
+        Log().warn("[{}] {}: dropping a torn last line ({})", options_.label, csv_path,
+                   replay_torn_reason_);
+        fs::resize_file(csv_path, replay_valid_bytes_, ec);
+        if (ec) throw Error(StatusCode::kInvalidArgument, "cannot truncate " + csv_path + ": " + ec.message());
+      }
+      Log().info("[{}] resuming {}: {} evaluations recorded", options_.label, options_.out_dir,
+                 replay_.size());
+    } else {
+      std::map<std::string, std::string> info = options_.info;
+      info["problem"] = problem_.source;
+      WriteRunFile((fs::path(options_.out_dir) / "run.toml").string(), Identity(), info);
+    }
     std::lock_guard lock(mu_);
-    csv_.open(csv_path, std::ios::trunc);
+    if (append) csv_columns_ = replay_columns_;
+    csv_.open(csv_path, append ? std::ios::app : std::ios::trunc);
     if (!csv_) throw Error(StatusCode::kInvalidArgument, "cannot write " + csv_path);
   }
 
@@ -326,6 +454,15 @@ SessionResult Session::Run() {
     if (csv_.is_open()) csv_.close();
   }
   result.wall_seconds = Seconds(start_);  // only Run writes start_
+  if (result.evaluations < static_cast<long long>(replay_.size()) && status != YAMOR_FAILED &&
+      !stop_.load()) {
+    // The plugin stopped before reaching the end of its record.
+    std::snprintf(error, sizeof(error),
+                  "resuming: the plugin ended after %lld evaluations but evaluations.csv "
+                  "recorded %zu: the run does not follow its record",
+                  result.evaluations, replay_.size());
+    status = YAMOR_FAILED;
+  }
   if (status == YAMOR_OK) {
     result.status = "converged";
   } else if (status == YAMOR_STOPPED) {

@@ -17,6 +17,7 @@
 
 #include "optimizer-plugins/framework/evaluator.h"
 #include "optimizer-plugins/framework/plugin_loader.h"
+#include "optimizer-plugins/framework/resume.h"
 
 namespace yamor::optimizer {
 
@@ -54,6 +55,16 @@ struct SessionOptions {
   /// Evaluations run on a live robot (LiveEvaluator): evaluations.csv gets a
   /// robot_seconds column, summary.json says "live": true.
   bool live = false;
+  /// Continue the run recorded in out_dir (yamor-optimize --resume): its
+  /// evaluations are answered from evaluations.csv, the rest are evaluated
+  /// and appended. A folder that does not exist yet starts afresh.
+  bool resume = false;
+  /// What else the evaluations depend on (configuration, evaluation
+  /// settings), beside what the session knows (plugin and its file, seed,
+  /// fields, parameters): written to run.toml, compared on resume.
+  RunIdentity identity;
+  /// Written to run.toml for people (e.g. "command"), never compared.
+  std::map<std::string, std::string> info;
 };
 
 /// One recorded evaluation.
@@ -97,17 +108,25 @@ class Session {
  public:
   /// Validates the problem and the --set values (yamor::Error
   /// kInvalidArgument naming what is wrong); `plugin`, `problem` and
-  /// `evaluator` outlive the session.
+  /// `evaluator` outlive the session. With options.resume, reads the
+  /// recorded run: kFailedPrecondition naming every difference when the
+  /// plugin, its file, the seed, the fields, the parameters or
+  /// options.identity differ from run.toml's, or when the folder holds
+  /// evaluations but no run.toml; kDataLoss for a damaged record (a torn
+  /// last line is not damage: Run drops it).
   Session(const LoadedPlugin& plugin, const Problem& problem, Evaluator& evaluator,
           SessionOptions options);
   ~Session();
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
 
-  /// Runs the plugin to its end; writes evaluations.csv as evaluations
-  /// arrive, best.xml whenever the best improves (when the problem has a
-  /// configuration), and summary.json at the end. Never throws for plugin
-  /// or evaluation failures (they end as status "failed").
+  /// Runs the plugin to its end; writes run.toml first (unless resuming),
+  /// evaluations.csv as evaluations arrive, best.xml whenever the best
+  /// improves (when the problem has a configuration), and summary.json at
+  /// the end. Resuming, the recorded evaluations answer the plugin's first
+  /// requests (a request that differs from the record fails the run) and a
+  /// torn last line is cut off before new rows are appended. Never throws
+  /// for plugin or evaluation failures (they end as status "failed").
   SessionResult Run();
 
   /// Asks the plugin to stop: its next evaluate returns STOPPED.
@@ -122,6 +141,13 @@ class Session {
   /// The resolved field values (defaults with --set applied).
   const std::map<std::string, std::string>& fields() const { return fields_; }
 
+  /// What run.toml records and resume compares: options.identity plus the
+  /// plugin, its file's fingerprint, the seed, the fields and parameters.
+  RunIdentity Identity() const;
+
+  /// Evaluations a resumed session answers from the record (0 otherwise).
+  std::size_t RecordedCount() const { return replay_.size(); }
+
  private:
   struct Callbacks;
   friend struct Callbacks;
@@ -129,7 +155,9 @@ class Session {
   int32_t EvaluatePoints(const double* points, std::size_t count, double* values,
                          std::size_t* evaluated);
   void Record(const std::vector<std::vector<double>>& points, const std::vector<Candidate>& batch,
-              const std::vector<Evaluation>& results, double* values);
+              const std::vector<Evaluation>& results, double* values, std::size_t replayed);
+  void LoadRecord();
+  std::string CheckRecorded(const Candidate& candidate, const RecordedEvaluation& row) const;
   void WriteSummary(const SessionResult& result) const;
   void WriteBest(const std::vector<double>& point) const;
 
@@ -143,6 +171,13 @@ class Session {
   std::mt19937_64 random_;                  // only the plugin's thread uses it
   std::string last_error_;                  // only the plugin's thread uses it
   std::atomic<bool> stop_{false};
+  // Resuming: the recorded evaluations (read-only after construction).
+  std::vector<RecordedEvaluation> replay_;
+  std::vector<std::string> replay_columns_;
+  std::uintmax_t replay_valid_bytes_ = 0;
+  bool replay_torn_ = false;
+  std::string replay_torn_reason_;
+  bool replay_has_run_file_ = false;
 
   mutable std::mutex mu_;
   std::chrono::steady_clock::time_point start_;  // guarded by mu_ (written by Run)

@@ -389,6 +389,18 @@ TEST(WorldTest, LimpMotorSwingsFreelyAndStuckMotorHolds) {
   EXPECT_NEAR(TailAngleAfterFault(MotorFault::kNone, -0.3), -0.3, 0.02);
 }
 
+// The driver switches a defective motor off (thesis C.2.6): a jammed gearbox
+// still holds, so "stuck" is not "limp" once the power is gone.
+TEST(WorldTest, StuckMotorHoldsWithoutPower) {
+  World world(Load("snake"));
+  world.SetServoTarget(8, 0.6);
+  world.Step(600);
+  world.SetMotorFault(8, MotorFault::kStuck);
+  world.SetMotorEnabled(8, false);
+  world.Step(800);
+  EXPECT_NEAR(world.ServoAngle(8), 0.6, 0.01);
+}
+
 TEST(WorldTest, MotorOffAndModuleDefectGoLimp) {
   for (int variant = 0; variant < 2; ++variant) {
     World world(Load("snake"));

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every libFuzzer binary in BUILD_DIR/tests/fuzz for SECONDS each, from
-# its checked-in seed corpus (tests/fuzz/corpus/<name>) plus a scratch corpus.
+# its checked-in seed corpus (tests/fuzz/corpus/<name>) plus a scratch corpus,
+# with its dictionary (tests/fuzz/dict/<name>.dict) when there is one.
 set -euo pipefail
 build="$1"; seconds="$2"
 root="$(cd "$(dirname "$0")/../.." && pwd)"
@@ -14,6 +15,8 @@ for fuzzer in "$build"/tests/fuzz/*_fuzzer; do
   mkdir -p "$scratch"
   echo "fuzz: $name for ${seconds}s"
   args=("-max_total_time=$seconds" "-print_final_stats=1" "-artifact_prefix=$build/")
+  dict="$root/tests/fuzz/dict/$name.dict"
+  [ -f "$dict" ] && args+=("-dict=$dict")
   if [ -d "$seeds" ]; then "$fuzzer" "${args[@]}" "$scratch" "$seeds" 2>"$build/$name.log" || { tail -50 "$build/$name.log"; exit 1; }
   else "$fuzzer" "${args[@]}" "$scratch" 2>"$build/$name.log" || { tail -50 "$build/$name.log"; exit 1; }
   fi

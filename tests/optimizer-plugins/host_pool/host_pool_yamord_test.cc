@@ -1,6 +1,7 @@
 // The host pool over real yamord daemons (path compiled in) on ephemeral
 // ports: results equal direct Evaluate calls, a daemon killed mid-batch,
-// a caller error from the daemon.
+// a caller error from the daemon, a host file growing and shrinking while a
+// batch runs.
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
@@ -9,7 +10,10 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+#include <fstream>
 #include <future>
+#include <map>
 #include <set>
 
 #include "common/status.h"
@@ -220,6 +224,73 @@ TEST(HostPoolYamordTest, TheRobotsConditionReachesEveryEvaluation) {
     EXPECT_EQ(e.code(), StatusCode::kNotFound) << e.what();
     EXPECT_NE(std::string(e.what()).find("module 77"), std::string::npos) << e.what();
   }
+}
+
+// Issue 17 §3: daemons started and stopped mid-batch, joining and leaving
+// through the host file; no slot is lost or filled twice, and every result is
+// the daemon's own answer for its candidate.
+TEST(HostPoolYamordTest, HostFileGrowsAndShrinksWhileABatchRuns) {
+  EvaluationSettings settings = Quadruped();
+  settings.warmup = 0.3;
+  settings.duration = 0.5;
+  const std::string path =
+      (std::filesystem::path(::testing::TempDir()) / "pool_yamord_hosts.txt").string();
+  const auto write = [&](const std::vector<const Daemon*>& daemons) {
+    std::string text = "# written by the test\n";
+    for (const Daemon* d : daemons) text += d->address().ToString() + "\n";
+    std::ofstream(path + ".tmp") << text;
+    std::filesystem::rename(path + ".tmp", path);
+  };
+  const auto completed = [](const HostPool& pool, const Daemon& d) -> long long {
+    for (const HostStatus& s : pool.Status()) {
+      if (s.address.ToString() == d.address().ToString()) return s.completed;
+    }
+    return -1;  // not (or no longer) in the pool
+  };
+  auto a = std::make_unique<Daemon>(1);
+  ASSERT_GT(a->port(), 0);
+  write({a.get()});
+  HostPool pool(ParseHosts("@" + path), settings, FastRetry());
+  HostListWatcher watcher(path, pool, 0.05);
+  // Each gait twice: equal results prove no slot got another's reply.
+  std::vector<Candidate> batch;
+  for (const Candidate& c : Gaits(15)) {
+    batch.push_back(c);
+    batch.push_back(c);
+  }
+  auto result =
+      std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch, seconds(120)); });
+  ASSERT_TRUE(WaitFor([&] { return completed(pool, *a) >= 2; }, seconds(60)));
+
+  Daemon b(1);  // started mid-batch and listed
+  ASSERT_GT(b.port(), 0);
+  write({a.get(), &b});
+  ASSERT_TRUE(WaitFor([&] { return completed(pool, b) >= 1; }, seconds(60)));
+
+  write({&b});  // a is unlisted: it finishes its evaluation, then leaves
+  ASSERT_TRUE(WaitFor([&] { return completed(pool, *a) == -1; }, seconds(60)));
+  a.reset();    // and is stopped
+
+  Daemon c(1);  // another one joins, then b dies without being unlisted
+  ASSERT_GT(c.port(), 0);
+  write({&b, &c});
+  ASSERT_TRUE(WaitFor([&] { return completed(pool, c) >= 1; }, seconds(60)));
+  b.Kill();
+
+  const std::vector<Evaluation> results = result.get();
+  ASSERT_EQ(results.size(), batch.size());
+  std::map<std::string, int> per_host;
+  for (const Evaluation& e : results) ++per_host[e.host];
+  EXPECT_EQ(per_host.size(), 3u) << "a, b and c each scored some";
+  for (std::size_t i = 0; i < batch.size(); i += 2) {
+    EXPECT_EQ(results[i].velocity, results[i + 1].velocity) << "slots " << i << ", " << i + 1;
+    EXPECT_FALSE(results[i].diverged);
+  }
+  for (std::size_t i = 0; i < batch.size(); i += 6) {
+    const yamor::v1::EvaluateResponse direct = DirectEvaluate(c.address(), settings, batch[i]);
+    EXPECT_EQ(results[i].velocity, direct.velocity()) << "slot " << i << " bit-identical";
+  }
+  EXPECT_EQ(watcher.Applied(), 3);
 }
 
 }  // namespace
