@@ -252,13 +252,15 @@ void RobotDriver::OnTrackedPose(const TrackedPose& tracked) {
 }
 
 void RobotDriver::CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
-                                                const physics::Morphology& morphology) const {
+                                                const physics::Morphology& morphology,
+                                                const physics::Morphology* now) const {
   std::vector<int> ids;
   for (const cpg::ModuleParams& m : config.modules) ids.push_back(m.id);
   options_.id_map.CheckInjective(ids);
   for (const cpg::ModuleParams& m : config.modules) {
     const int sim = options_.id_map.ToSim(m.id);
-    if (!morphology.Contains(sim) || morphology.Module(sim).free) {
+    const bool attached = now != nullptr && now->Contains(sim) && !now->Module(sim).free;
+    if (!attached && (!morphology.Contains(sim) || morphology.Module(sim).free)) {
       throw Error(StatusCode::kInvalidArgument,
                   "module " + Id(m.id) + " of the configuration" +
                       (sim != m.id ? " (simulation id " + Id(sim) + ")" : std::string()) +
@@ -435,7 +437,18 @@ void RobotDriver::LoadConfig(std::string_view xml, std::string_view source_name)
       cpg::ParseConfigXml(xml, source_name.empty() ? "<request>" : source_name);
   Lock lock(mutex_);
   if (backend_ && world_morphology_) {
-    CheckConfigAgainstWorldLocked(config, *world_morphology_);
+    // A spare of the world attached since it opened (ConnectModules, a
+    // script) may be configured too: then the body as it is now is asked.
+    bool spare = false;
+    for (const cpg::ModuleParams& m : config.modules) {
+      const int sim = options_.id_map.ToSim(m.id);
+      spare = spare || (world_morphology_->Contains(sim) && world_morphology_->Module(sim).free);
+    }
+    std::optional<physics::Morphology> now;
+    if (spare && backend_->IsSimulation()) {
+      now = physics::Morphology::Parse(link_->ReadMorphologyXml(), world_morphology_->source());
+    }
+    CheckConfigAgainstWorldLocked(config, *world_morphology_, now ? &*now : nullptr);
   } else {
     std::vector<int> ids;
     for (const cpg::ModuleParams& m : config.modules) ids.push_back(m.id);

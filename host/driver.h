@@ -402,8 +402,10 @@ class RobotDriver {
   int SendModuleConfigLocked(const cpg::ModuleParams& module, const PendingModule* only);
   int RefreshLocked();
   void MarkAllPendingLocked();
-  void CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config,
-                                     const physics::Morphology& morphology) const;
+  // Every configured module is a (non-free) module of `morphology`, or of
+  // `now` (the body as it is now; may be null).
+  void CheckConfigAgainstWorldLocked(const cpg::RobotConfig& config, const physics::Morphology& morphology,
+                                     const physics::Morphology* now = nullptr) const;
   void ResetRobotStateLocked();
   void PushEvent(StateEvent event) { state_.Push(std::move(event)); }
   void FreeRunLoop();

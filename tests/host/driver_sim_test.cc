@@ -9,6 +9,7 @@
 
 #include "bridge/robot.h"
 #include "common/status.h"
+#include "cpg/config_xml.h"
 #include "host/builtin_robots.h"
 #include "host/driver.h"
 #include "host/evaluator.h"
@@ -395,6 +396,34 @@ TEST(DriverSimTest, GetMorphologyIsTheRobotAsItIsNow) {
   physics::World reference(initial);
   physics::RunScript(reference, physics::TransformationScript::Parse(script, "script"));
   EXPECT_EQ(after.ToXml(), reference.CurrentMorphology().ToXml());
+}
+
+// Issue 13: a spare attached while the robot lives may be configured (the
+// lifelong runner rebuilds the network with it); one still lying free may not.
+TEST(DriverSimTest, AnAttachedSpareMayBeConfigured) {
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  SimulationSpec spec = Quadruped();
+  std::vector<physics::MorphologyModule> modules = spec.morphology.modules();
+  modules.push_back({9, true, 0});
+  spec.morphology = physics::Morphology::Build(spec.morphology.central(), modules, spec.morphology.connections(),
+                                               spec.morphology.orientation_degrees(), "quadruped+spare");
+  driver.OpenSimulation(std::move(spec));
+  cpg::RobotConfig config = testing::QuadrupedConfig();
+  config.modules.push_back({.id = 9, .amplitude = 0.3, .speed = 0.3});
+  config.bluetooth_parent[9] = 5;
+  const std::string xml = cpg::WriteConfigXml(config);
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { driver.LoadConfig(xml, "with-9.xml"); }, &message), StatusCode::kInvalidArgument);
+  EXPECT_NE(message.find("module 9 of the configuration is a free module"), std::string::npos) << message;
+  driver.ConnectModules(9, snp::Connector::kFront, 5, snp::Connector::kRear, 0);
+  driver.LoadConfig(xml, "with-9.xml");
+  EXPECT_EQ(driver.Config().modules.back().id, 9);
+  const ConnectResult connected = driver.ConnectRobot(0.0, false, nullptr);
+  EXPECT_EQ(connected.links, 9);
+  // A module put away since the world opened stays configurable, as before.
+  driver.DisconnectModule(9);
+  driver.DisconnectModule(7);
+  driver.LoadConfig(cpg::WriteConfigXml(testing::QuadrupedConfig()), "quadruped.xml");
 }
 
 TEST(DriverSimTest, ABodyWithoutAValidMorphologyIsAFailedPrecondition) {

@@ -248,3 +248,29 @@ def test_ch4_writes_table_4_1_and_the_19_appendix_b_figures(tmp_path):
         check_png(folder / f"figB-{number}.png")
     assert not list(folder.glob("*.partial*"))
     assert "Table 4.1" in result.stdout
+
+
+def test_fig7_4_draws_one_life_through_the_transformation(tmp_path):
+    tool = BUILD / "optimizer-plugins" / "lifelong" / "yamor-lifelong"
+    if not tool.exists():
+        pytest.skip(f"not built: {tool}")
+    run_tool(REPRODUCE, "fig7-4", "--quick", "--quiet", "--out", str(tmp_path), timeout=180)
+    folder = tmp_path / "fig7-4"
+    check_png(folder / "fig7-4.png")
+    header, rows = read_csv_allowing_gaps(folder / "fig7-4.csv")
+    assert header == ["time", "velocity", "ema", "state", "event", "gait"]
+    states = {r[3] for r in rows}
+    assert {"walking", "relearning"} <= states, states
+    assert any(r[4].startswith("anomaly: module_") for r in rows), rows
+    events = [json.loads(line) for line in (folder / "life" / "events.jsonl").read_text().splitlines()]
+    relearn = [e for e in events if e["kind"] == "relearn"]
+    assert relearn and relearn[0]["how"] == "rebuilt"
+    assert any(e["kind"] == "relearned" for e in events)
+
+
+def read_csv_allowing_gaps(path: Path) -> tuple[list[str], list[list[str]]]:
+    """A timeline: empty cells stand for no measurement (event rows); no NaN text."""
+    text = path.read_text()
+    assert "nan" not in text.lower(), path
+    rows = list(csv.reader(text.splitlines()))
+    return rows[0], rows[1:]

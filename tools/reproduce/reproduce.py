@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Reproduces the thesis's chapter 4 and chapter 6 figures (yamor-characterize, yamor-optimize).
+"""Reproduces the thesis's chapter 4, 6 and 7 figures (yamor-characterize, yamor-optimize, yamor-lifelong).
 
-Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,all} [--out results/reproduce]
+Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,all} [--out results/reproduce]
                     [--build build/release] [--quick] [--hosts H:P,...] [--daemons N]
 
   fig6-3    the 64x64 landscape of the quadruped's velocity over the hip->knee
@@ -13,6 +13,10 @@ Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,all} [--out results/reproduce]
   fig6-12   classic vs interval Powell on the seven parameters (quadruped-7.xml)
             from 10 seeded random start points, best-so-far curves side by side
   all       the three, over one daemon pool
+  fig7-4    the quadruped's velocity over its life, transformed at minute 4
+            (configs/lifelong/transform.toml): yamor-lifelong on one daemon
+            notices the change, rebuilds its CPG network and relearns
+            (--mode online, the thesis's way, or model)
   ch4       chapter 4 in simulation (no daemons): Table 4.1 and Figures B.1-B.19
             from yamor-characterize noise and moves (seed --eval-seed), drawn by
             tools/characterize/plot_characterize.py (not with --quick)
@@ -29,6 +33,7 @@ import argparse
 import csv
 import json
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -345,7 +350,7 @@ def parse_args(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="\n".join(__doc__.splitlines()[4:]))
-    parser.add_argument("figure", choices=["ch4", "fig6-3", "fig6-5-7", "fig6-12", "all"])
+    parser.add_argument("figure", choices=["ch4", "fig6-3", "fig6-5-7", "fig6-12", "fig7-4", "all"])
     parser.add_argument("--out", default="results/reproduce", help="results folder (default %(default)s)")
     parser.add_argument("--build", default="build/release", help="build tree (default %(default)s)")
     parser.add_argument("--quick", action="store_true",
@@ -362,13 +367,18 @@ def parse_args(argv):
     parser.add_argument("--resolution", type=int, default=None, help="landscape points per axis (64)")
     parser.add_argument("--path-budget", type=int, default=None,
                         help="evaluations per Powell run of Figures 6.5-6.7 (200)")
-    parser.add_argument("--budget", type=int, default=None, help="evaluations per run of Figure 6.12 (300)")
+    parser.add_argument("--budget", type=int, default=None,
+                        help="evaluations per run of Figure 6.12 (300); fig7-4: relearning trials "
+                             "(default: the scenario's)")
+    parser.add_argument("--mode", choices=["online", "model"], default="online",
+                        help="fig7-4: how yamor-lifelong relearns (default %(default)s)")
     parser.add_argument("--starts", type=int, default=10, help="start points of Figure 6.12 (10)")
     parser.add_argument("--landscape", default=None,
                         help="fig6-5-7: draw on this landscape CSV instead of OUT/fig6-3/landscape.csv")
     parser.add_argument("--quiet", action="store_true", help="yamor-optimize's output to log files only")
     args = parser.parse_args(argv)
     quick = args.quick
+    args.budget_set = args.budget is not None
     defaults = {"warmup": (1.0, 8.0), "duration": (2.0, 12.0), "resolution": (4, 64),
                 "path_budget": (10, 200), "budget": (10, 300)}
     for name, (small, full) in defaults.items():
@@ -418,8 +428,75 @@ def ch4(args, out: Path) -> Path:
     return folder
 
 
+# --- Chapter 7 ----------------------------------------------------------------
+
+LIFELONG_SCENARIO = REPO / "configs" / "lifelong" / "transform.toml"
+
+
+def fig7_4(args, out: Path) -> Path:
+    """Figure 7.4: one life of the quadruped through the 7.5.1 transformation; returns the folder."""
+    build = Path(args.build)
+    if not build.is_absolute():
+        build = REPO / build
+    tool = build / "optimizer-plugins" / "lifelong" / "yamor-lifelong"
+    if not tool.exists():
+        raise ToolError(f"{tool} does not exist (build the yamor-lifelong target, or pass --build)")
+    folder = out / "fig7-4"
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    scenario = LIFELONG_SCENARIO
+    extra = []
+    if args.quick:
+        # The same story in a minute of robot time: the change at 20 s, short
+        # windows, three relearning trials.
+        text = scenario.read_text()
+        text = text.replace('config = "quadruped-walking.xml"',
+                            f'config = "{scenario.parent / "quadruped-walking.xml"}"')
+        text = text.replace('file = "../scripts/', f'file = "{REPO / "configs" / "scripts"}/')
+        text = text.replace("at = 240", "at = 20")
+        scenario = folder / "quick.toml"
+        scenario.write_text(text)
+        extra = ["--max-time", "90", "--window-periods", "2", "--settle-periods", "0.5",
+                 "--trial-periods", "1.5", "--set", "max_evaluations=3"]
+    elif args.budget_set:
+        extra = ["--set", f"max_evaluations={args.budget}"]
+    workers = 2 if args.mode == "model" else 1
+    with (daemons.DaemonPool.existing(args.hosts) if args.hosts
+          else daemons.DaemonPool.start(daemons.binaries(args.build)["yamord"], 1, folder / "daemons",
+                                        workers=workers, quiet=args.quiet)) as pool:
+        life = folder / "life"
+        argv = [str(tool), "--host", pool.hosts[0], "--scenario", str(scenario), "--out", str(life),
+                "--mode", args.mode, "--seed", str(args.seed), *extra]
+        if args.quiet:
+            argv += ["--quiet", "--log-level", "warn"]
+        print("reproduce: " + " ".join(argv), flush=True)
+        log = folder / "yamor-lifelong.log"
+        # timeline.png is drawn with this interpreter (the one with matplotlib).
+        env = dict(os.environ)
+        env.setdefault("YAMOR_PYTHON", sys.executable)
+        with open(log, "w") as f:
+            result = subprocess.run(argv, cwd=REPO, stdout=f, stderr=subprocess.STDOUT if args.quiet else None,
+                                    env=env)
+        if result.returncode != 0:
+            raise ToolError(f"yamor-lifelong exited with status {result.returncode}; see {log}")
+    for name, dest in (("timeline.csv", "fig7-4.csv"), ("timeline.png", "fig7-4.png")):
+        if not (life / name).exists():
+            raise ToolError(f"{life / name} was not written (matplotlib missing?); see {log}")
+        shutil.copy(life / name, folder / dest)
+    return folder
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if args.figure == "fig7-4":
+        out = Path(args.out)
+        if not out.is_absolute():
+            out = Path.cwd() / out
+        started = time.monotonic()
+        folder = fig7_4(args, out)
+        print(f"reproduce: fig7-4 done in {time.monotonic() - started:.0f} s; results in {folder}", flush=True)
+        return 0
     if args.figure == "ch4":
         out = Path(args.out)
         if not out.is_absolute():

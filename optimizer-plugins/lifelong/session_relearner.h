@@ -1,0 +1,79 @@
+// Relearning with any optimizer plugin, run as yamor-optimize runs it (a
+// framework Session over a problem), in one of two modes (issue 13):
+//   online — every candidate is a trial on the live robot (LiveEvaluator;
+//            thesis-faithful; every evaluation is robot time);
+//   model  — candidates are evaluated in simulation on a host pool with the
+//            robot's current body, faults, ground and orientation; the few
+//            best are then verified on the live robot, and only those trials
+//            are robot time.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "optimizer-plugins/framework/host_pool.h"
+#include "optimizer-plugins/framework/plugin_loader.h"
+#include "optimizer-plugins/framework/session.h"
+#include "optimizer-plugins/lifelong/daemon_port.h"
+#include "optimizer-plugins/lifelong/robot_port.h"
+
+namespace yamor::lifelong {
+
+/// How relearning runs.
+struct RelearnerOptions {
+  std::string mode = "online";     ///< "online" or "model".
+  std::string plugin = "powell";   ///< Plugin name or path (yamor-optimize --plugin).
+  std::vector<std::string> plugin_dirs;  ///< Folders searched before the defaults.
+  /// Plugin field values (yamor-optimize --set). Without max_evaluations the
+  /// budget is 60 trials online and 400 evaluations in model mode.
+  std::map<std::string, std::string> set;
+  /// Model mode: the hosts evaluating candidates; empty = the robot's own daemon.
+  std::vector<optimizer::HostAddress> model_hosts;
+  double model_warmup = 4;         ///< Model mode: [s] before the measured span.
+  double model_duration = 8;       ///< Model mode: [s] measured span.
+  std::uint64_t model_seed = 0;    ///< Model mode: world seed.
+  int verify = 3;                  ///< Model mode: best candidates verified on the robot.
+  optimizer::PoolOptions pool;     ///< Model mode: host pool behaviour.
+};
+
+/// Checks `options` (kInvalidArgument naming the field).
+void ValidateRelearnerOptions(const RelearnerOptions& options);
+
+/// A Relearner over a DaemonPort's robot.
+///
+/// Thread safety: Relearn from one thread; RequestStop from any.
+class SessionRelearner final : public Relearner {
+ public:
+  /// Loads the plugin and checks the field values now, so a typo fails at
+  /// start rather than at the first anomaly (yamor::Error as
+  /// optimizer::LoadedPlugin::Load and ResolveFieldValues throw).
+  SessionRelearner(DaemonPort& port, RelearnerOptions options);
+  ~SessionRelearner() override;
+
+  RelearnResult Relearn(const RelearnRequest& request,
+                        const std::function<void(const Trial&)>& on_trial) override;
+  void RequestStop() override;
+  std::string mode() const override { return options_.mode; }
+
+  /// The plugin in use.
+  const optimizer::LoadedPlugin& plugin() const { return plugin_; }
+
+ private:
+  RelearnResult Online(const RelearnRequest& request, const std::function<void(const Trial&)>& on_trial);
+  RelearnResult Model(const RelearnRequest& request, const std::function<void(const Trial&)>& on_trial);
+  std::map<std::string, std::string> Fields() const;
+
+  DaemonPort& port_;
+  RelearnerOptions options_;
+  optimizer::LoadedPlugin plugin_;
+
+  std::mutex mu_;
+  bool stop_ = false;                             // guarded by mu_
+  optimizer::Session* session_ = nullptr;         // guarded by mu_
+  optimizer::Evaluator* evaluator_ = nullptr;     // guarded by mu_
+};
+
+}  // namespace yamor::lifelong
