@@ -1056,6 +1056,8 @@ void AddRecord(CLI::App& app, Action& action) {
       return 0;
     };
   });
+}
+
 // ---- LED tracking (local: the camera application and files, no daemon) -----------
 
 void AddTracking(CLI::App& app, Action& action, const GlobalOptions& global) {
