@@ -35,8 +35,15 @@ render::Scene SceneOf(const physics::World& world) {
         .center = box.center,
         .size = box.size});
   }
-  // On the top face, in the middle: where the tracked LED sits.
-  scene.led = Eigen::Vector3d(0.0, 0.0, physics::module::kBodyHeight / 2 + 0.003);
+  // In the middle of the face that is up when the robot stands as built:
+  // where the tracked LED sits, looking at the ceiling camera.
+  const Eigen::Vector3d up = physics::CentralUpAxis(world.morphology());
+  double reach = 0.0;
+  for (const physics::ModuleBox& box : physics::ModuleBoxes()) {
+    if (box.part != physics::Part::kBody) continue;
+    reach = std::max(reach, box.center.dot(up) + 0.5 * box.size.cwiseAbs().dot(up.cwiseAbs()));
+  }
+  scene.led = up * (reach + 0.003);
   const int central = world.CentralModule();
   for (int id : world.ModuleIds()) {
     const physics::ModulePresence presence = world.Presence(id);

@@ -141,6 +141,19 @@ std::string FormatNumber(double value) {
 
 double MorphologyModule::StartAngle() const { return angle_degrees * (kPi / 180.0); }
 
+Eigen::Vector3d NearestFrameAxis(const Eigen::Vector3d& direction) {
+  Eigen::Index axis = 0;
+  direction.cwiseAbs().maxCoeff(&axis);
+  Eigen::Vector3d unit = Eigen::Vector3d::Zero();
+  unit[axis] = direction[axis] < 0.0 ? -1.0 : 1.0;
+  return unit;
+}
+
+Eigen::Vector3d CentralUpAxis(const Morphology& morphology) {
+  const Eigen::Matrix3d rotation = morphology.BodyPose(morphology.central()).linear();
+  return NearestFrameAxis(rotation.transpose() * Eigen::Vector3d::UnitZ());
+}
+
 Eigen::Matrix3d RotationFromRollPitchYaw(const Eigen::Vector3d& degrees) {
   const Eigen::Vector3d radians = degrees * (kPi / 180.0);
   return (Eigen::AngleAxisd(radians.z(), Eigen::Vector3d::UnitZ()) *

@@ -98,4 +98,13 @@ class Morphology {
 /// Rotation of roll, pitch, yaw (degrees) about fixed x, y, z axes: Rz·Ry·Rx.
 Eigen::Matrix3d RotationFromRollPitchYaw(const Eigen::Vector3d& degrees);
 
+/// The frame axis (±x, ±y or ±z, a unit vector) nearest to `direction`
+/// (any non-zero vector; ties go to x, then y).
+Eigen::Vector3d NearestFrameAxis(const Eigen::Vector3d& direction);
+
+/// The central module's axis, in its own frame, that points up in the
+/// morphology's starting pose: the face carrying the tracking LED (the LED
+/// looks up at the ceiling camera when the robot stands as built).
+Eigen::Vector3d CentralUpAxis(const Morphology& morphology);
+
 }  // namespace yamor::physics

@@ -563,6 +563,19 @@ TEST(BridgeSpecialsTest, ReadSceneServesEveryModulePoseInChunks) {
   EXPECT_EQ(via.Central()->id, direct.Central()->id);
 }
 
+// The LED is drawn on the central module's face that is up as built, also
+// for the quadruped whose central body is built on its side.
+TEST(BridgeSpecialsTest, TheSceneLedSitsOnTheFaceThatIsUpAsBuilt) {
+  for (const char* robot_name : {"snake", "quadruped"}) {
+    Robot robot(physics::Morphology::LoadFile(kSourceDir + "/configs/worlds/" + robot_name + ".xml"));
+    const render::Scene scene = SceneOf(robot.world());
+    const Eigen::Vector3d led_world = robot.world().ModulePose(robot.world().CentralModule()) * scene.led;
+    const Eigen::Vector3d centre = robot.world().ModulePose(robot.world().CentralModule()).translation();
+    EXPECT_GT(led_world.z() - centre.z(), 0.02) << robot_name << ": above the module's centre";
+    EXPECT_LT(std::hypot(led_world.x() - centre.x(), led_world.y() - centre.y()), 0.01) << robot_name;
+  }
+}
+
 TEST(BridgeSpecialsTest, ReadSceneLeavesPutAwayModulesOutAndShowsTheSlope) {
   Robot robot(SnakeMorphology());
   SendExpect<snp::SpecialAck>(robot, ToBridge(snp::DisconnectModule{.module = 8}));

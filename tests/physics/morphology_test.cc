@@ -347,3 +347,26 @@ TEST(MorphologyTest, RobotWorldsHaveTheConfiguredModuleIds) {
 
 }  // namespace
 }  // namespace yamor::physics
+
+namespace yamor::physics {
+namespace {
+
+// The LED sits on the central module's face that is up as built: +z for a
+// module lying flat, another axis for one built on its side.
+TEST(CentralUpAxisTest, IsTheCentralModulesAxisThatPointsUpAsBuilt) {
+  EXPECT_TRUE(NearestFrameAxis({0.1, -0.9, 0.3}).isApprox(Eigen::Vector3d(0, -1, 0)));
+  EXPECT_TRUE(NearestFrameAxis({0.5, 0.5, 0.1}).isApprox(Eigen::Vector3d(1, 0, 0))) << "ties go to x";
+  for (const char* robot : {"quadruped", "snake", "wheel", "dog", "tripod", "trebuchet"}) {
+    const Morphology m = Morphology::LoadFile(kWorlds + robot + ".xml");
+    const Eigen::Vector3d up = CentralUpAxis(m);
+    const Eigen::Vector3d world_up = m.BodyPose(m.central()).linear() * up;
+    EXPECT_GT(world_up.z(), std::cos(M_PI / 4)) << robot << ": the axis points up within 45 degrees";
+    EXPECT_NEAR(up.norm(), 1.0, 1e-12) << robot;
+  }
+  const Morphology quadruped = Morphology::LoadFile(kWorlds + std::string("quadruped.xml"));
+  EXPECT_TRUE(CentralUpAxis(quadruped).isApprox(Eigen::Vector3d::UnitX()))
+      << "the quadruped's central body is built on its side";
+}
+
+}  // namespace
+}  // namespace yamor::physics

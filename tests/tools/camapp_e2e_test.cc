@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "common/format.h"
+#include "physics/render/image.h"
 #include "tests/support/host_call.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
@@ -215,6 +216,82 @@ TEST(CamAppEndToEndTest, TrackedPositionsOfAWalkAreWithin5mmThroughDropoutsAndAC
   EXPECT_EQ(connections, 2) << "it reconnected to the restarted camera";
   EXPECT_GT(dropouts, 0);
   EXPECT_LT(recorded_errors.max, 0.005);
+  std::filesystem::remove_all(dir);
+}
+
+// The LED faces up from the central module: a robot turned on its back hides
+// it, so the tracked position becomes UNAVAILABLE (never a stale one) and
+// the camera logs the frames "hidden". With --frames the camera also writes
+// its picture of the frames: the render resampled through its lens.
+TEST(CamAppEndToEndTest, ARobotOnItsBackHidesTheLedAndTheCameraFilmsPictures) {
+  const std::filesystem::path dir = TempDir();
+  const std::string calibration = (dir / "camera.txt").string();
+  YamordProcess writer(kCamApp, {"--calibration-only", "--write-calibration", calibration, "--led-height",
+                                 FormatDouble(kLedHeight)});
+  ASSERT_EQ(writer.WaitForExit(std::chrono::seconds(20)), 0);
+  const int camera_port = FreePort();
+  YamordProcess yamord(kYamord, {"--listen", "127.0.0.1:0", "--log-level", "warn", "--led-tracker",
+                                 "127.0.0.1:" + std::to_string(camera_port), "--tracker-calibration",
+                                 calibration, "--tracker-max-age", "1", "--position-source", "tracker"});
+  const int port = yamord.WaitForPort();
+  ASSERT_GT(port, 0);
+  auto stub = v1::Host::NewStub(
+      grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials()));
+  auto call = [&](auto method, const auto& request, auto* response) {
+    return ::yamor::testing::Call(*stub, method, request, response, 30);
+  };
+  const std::string truth = (dir / "truth.csv").string();
+  const std::filesystem::path pictures = dir / "pictures";
+  YamordProcess camera(kCamApp, {"--yamord", "127.0.0.1:" + std::to_string(port), "--listen",
+                                 "127.0.0.1:" + std::to_string(camera_port), "--truth", truth, "--noise", "0",
+                                 "--latency", "0.002", "--poll-interval", "0.002", "--frames",
+                                 pictures.string(), "--frames-every", "3", "--log-level", "warn"});
+  ASSERT_EQ(camera.ReadLine(), "yamor-camapp: listening on 127.0.0.1:" + std::to_string(camera_port));
+
+  v1::SleepRequest step;
+  step.set_seconds(0.04);
+  v1::RobotPositionResponse tracked;
+  grpc::Status s;
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_OK(call(&v1::Host::Stub::Sleep, step, static_cast<v1::SleepResponse*>(nullptr)));
+    ASSERT_OK(call(&v1::Host::Stub::RobotPosition, Empty(), &tracked));
+  }
+  ASSERT_OK(call(&v1::Host::Stub::TurnUpsideDown, Empty(), static_cast<Empty*>(nullptr)));
+  for (int k = 0; k < 10; ++k) {
+    ASSERT_OK(call(&v1::Host::Stub::Sleep, step, static_cast<v1::SleepResponse*>(nullptr)));
+    s = call(&v1::Host::Stub::RobotPosition, Empty(), &tracked);
+    ASSERT_EQ(s.error_code(), grpc::StatusCode::UNAVAILABLE) << "step " << k << ": the LED faces the floor";
+    EXPECT_NE(s.error_message().find("not seen"), std::string::npos) << s.error_message();
+  }
+  camera.Signal(SIGTERM);
+  ASSERT_EQ(camera.WaitForExit(std::chrono::seconds(20)), 0);
+
+  int seen = 0, hidden = 0;
+  for (const auto& row : ReadCsv(truth)) {
+    seen += row[6] == "seen";
+    hidden += row[6] == "hidden";
+    if (row[6] == "hidden") {
+      EXPECT_LT(std::stod(row[5]), 0.5) << "on the floor, in the image";
+    }
+  }
+  EXPECT_GE(seen, 10);
+  EXPECT_GE(hidden, 10);
+
+  // The pictures: every third frame, the camera's size, an index naming them.
+  const auto index = ReadCsv((pictures / "frames.csv").string());
+  ASSERT_GE(index.size(), 5u);
+  int hidden_pictures = 0;
+  for (const auto& row : index) {
+    ASSERT_EQ(row.size(), 7u);
+    hidden_pictures += row[3] == "hidden";
+    std::ifstream png(pictures / row[6], std::ios::binary);
+    ASSERT_TRUE(png) << row[6];
+    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(png)), std::istreambuf_iterator<char>());
+    const render::Image image = render::DecodePng(bytes);
+    EXPECT_EQ(image.width, 640);
+    EXPECT_EQ(image.height, 480);
+  }
+  EXPECT_GT(hidden_pictures, 0);
   std::filesystem::remove_all(dir);
 }
 

@@ -26,6 +26,14 @@ host::LensParameters LensOf(const CameraOptions& o) {
   return p;
 }
 
+void CheckAxis(const Eigen::Vector3d& axis) {
+  if (!axis.allFinite() || axis.norm() < 1e-9) {
+    throw Error(StatusCode::kInvalidArgument,
+                fmt::format("camera: the LED axis ({}, {}, {}) must be finite and non-zero",
+                            FormatDouble(axis.x()), FormatDouble(axis.y()), FormatDouble(axis.z())));
+  }
+}
+
 const CameraOptions& Validated(const CameraOptions& o) {
   auto bad = [](const std::string& what, double value) {
     return Error(StatusCode::kInvalidArgument, "camera: " + what + ", got " + FormatDouble(value));
@@ -37,6 +45,8 @@ const CameraOptions& Validated(const CameraOptions& o) {
   if (!std::isfinite(o.camera_y)) throw bad("camera y must be finite", o.camera_y);
   if (!(o.noise >= 0.0 && o.noise <= 100.0)) throw bad("noise must be in [0, 100] px", o.noise);
   if (!(o.dropout >= 0.0 && o.dropout < 1.0)) throw bad("dropout must be in [0, 1)", o.dropout);
+  if (!(o.led_cone > 0.0 && o.led_cone <= 180.0)) throw bad("LED cone must be in (0, 180] deg", o.led_cone);
+  CheckAxis(o.led_axis);
   return o;
 }
 
@@ -47,6 +57,7 @@ const char* FrameStateName(FrameState state) {
     case FrameState::kSeen: return "seen";
     case FrameState::kOutside: return "outside";
     case FrameState::kDropout: return "dropout";
+    case FrameState::kHidden: return "hidden";
   }
   return "?";
 }
@@ -87,7 +98,22 @@ bool CameraEmulator::ProjectExact(const Eigen::Vector3d& p, Eigen::Vector2d* pix
   return true;
 }
 
-CameraFrame CameraEmulator::Capture(const Eigen::Vector3d& led) {
+void CameraEmulator::SetLedAxis(const Eigen::Vector3d& axis) {
+  CheckAxis(axis);
+  options_.led_axis = axis;
+}
+
+bool CameraEmulator::LedFacesLens(const Eigen::Vector3d& led,
+                                  const Eigen::Quaterniond& orientation) const {
+  const Eigen::Vector3d lens(options_.camera_x, options_.camera_y, options_.camera_height);
+  const Eigen::Vector3d to_lens = lens - led;
+  if (to_lens.norm() < 1e-12) return true;
+  const Eigen::Vector3d facing = orientation.normalized() * options_.led_axis.normalized();
+  const double cosine = std::clamp(facing.dot(to_lens.normalized()), -1.0, 1.0);
+  return std::acos(cosine) <= options_.led_cone * M_PI / 180.0;
+}
+
+CameraFrame CameraEmulator::Capture(const Eigen::Vector3d& led, const Eigen::Quaterniond& orientation) {
   // The same three draws every frame, whatever happens to it.
   std::normal_distribution<double> gauss(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -106,7 +132,11 @@ CameraFrame CameraEmulator::Capture(const Eigen::Vector3d& led) {
     return frame;  // the noise pushed it off the edge
   }
   frame.pixel = pixel;
-  frame.state = miss < options_.dropout ? FrameState::kDropout : FrameState::kSeen;
+  if (!LedFacesLens(led, orientation)) {
+    frame.state = FrameState::kHidden;
+  } else {
+    frame.state = miss < options_.dropout ? FrameState::kDropout : FrameState::kSeen;
+  }
   return frame;
 }
 

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cstdint>
 #include <random>
@@ -34,6 +35,12 @@ struct CameraOptions {
   double noise = 0.1;            ///< Standard deviation of the pixel noise, per axis [px].
   bool integer_pixels = true;    ///< Round to whole pixels as CamApp does; else 3 decimals.
   double dropout = 0.0;          ///< Probability that a frame misses the LED, in [0, 1).
+  /// Direction the LED faces in the central module's frame (non-zero; normalised).
+  Eigen::Vector3d led_axis = Eigen::Vector3d::UnitZ();
+  /// Half-angle of the LED's emission cone around `led_axis` [deg], in
+  /// (0, 180]: the camera sees the LED only when the lens lies inside it (a
+  /// robot on its back or side hides it).
+  double led_cone = 80.0;
   std::uint64_t seed = 0;        ///< Seed of the noise and the dropouts.
 };
 
@@ -42,9 +49,10 @@ enum class FrameState {
   kSeen,     ///< The LED is in the frame.
   kOutside,  ///< The LED is outside the image (or above the camera).
   kDropout,  ///< A random miss.
+  kHidden,   ///< The LED faces away from the lens (outside its emission cone).
 };
 
-/// The text of a FrameState ("seen", "outside", "dropout").
+/// The text of a FrameState ("seen", "outside", "dropout", "hidden").
 const char* FrameStateName(FrameState state);
 
 /// One captured frame.
@@ -59,7 +67,8 @@ struct CameraFrame {
 class CameraEmulator {
  public:
   /// Validates `options` (the lens through host::LensModel, heights,
-  /// noise >= 0, dropout in [0, 1)); INVALID_ARGUMENT naming the bad value.
+  /// noise >= 0, dropout in [0, 1), LED cone in (0, 180]); INVALID_ARGUMENT
+  /// naming the bad value.
   explicit CameraEmulator(const CameraOptions& options);
 
   /// The options.
@@ -75,9 +84,21 @@ class CameraEmulator {
   /// (outside, above the lens, or beyond where the lens folds).
   bool ProjectExact(const Eigen::Vector3d& p, Eigen::Vector2d* pixel) const;
 
-  /// Films the LED at world position `led` [m]: draws the frame's noise and
-  /// dropout (always the same draws per frame, so a seed replays exactly).
-  CameraFrame Capture(const Eigen::Vector3d& led);
+  /// Points the LED along `axis` in the central module's frame
+  /// (INVALID_ARGUMENT for a zero or non-finite axis).
+  void SetLedAxis(const Eigen::Vector3d& axis);
+
+  /// True when the lens lies inside the emission cone of an LED at `led`
+  /// [m] on a central module turned by `orientation` (the LED faces
+  /// `led_axis` of the module).
+  bool LedFacesLens(const Eigen::Vector3d& led, const Eigen::Quaterniond& orientation) const;
+
+  /// Films the LED at world position `led` [m] on a central module turned
+  /// by `orientation`: draws the frame's noise and dropout (always the same
+  /// draws per frame, so a seed replays exactly). Outside the image wins
+  /// over hidden, hidden over a dropout.
+  CameraFrame Capture(const Eigen::Vector3d& led,
+                      const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
 
   /// The pixel field of a sample line ("321", "321.500") for `frame`, or "-".
   std::string PixelText(double value) const;

@@ -8,6 +8,7 @@
 #include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
+#include "physics/morphology.h"
 
 namespace yamor::camapp {
 using Clock = std::chrono::steady_clock;
@@ -43,7 +44,8 @@ bool Emulator::PollOnce(Clock::time_point now) {
   SimulatedPose pose;
   try {
     pose = source_();
-    if (!std::isfinite(pose.time) || !pose.position.allFinite()) {
+    if (!std::isfinite(pose.time) || !pose.position.allFinite() || !pose.orientation.coeffs().allFinite() ||
+        pose.orientation.norm() < 1e-9) {
       throw Error(StatusCode::kInvalidArgument, "camapp: the pose is not finite");
     }
   } catch (const Error& e) {
@@ -53,14 +55,22 @@ bool Emulator::PollOnce(Clock::time_point now) {
   }
   if (!last_error_.empty()) Log().info("camapp: the pose is back");
   last_error_.clear();
-  if (!first_pose_) first_pose_ = pose;
+  if (!first_pose_) {
+    first_pose_ = pose;
+    if (options_.led_axis_from_first_pose) {
+      const Eigen::Vector3d up =
+          physics::NearestFrameAxis(pose.orientation.normalized().conjugate() * Eigen::Vector3d::UnitZ());
+      camera_.SetLedAxis(up);
+      Log().info("camapp: the LED faces the central module's ({}, {}, {}) axis", up.x(), up.y(), up.z());
+    }
+  }
   const FrameClock::Decision decision = clock_.Poll(pose.time, now);
   if (!decision.capture) return false;
   if (decision.restarted) Log().info("camapp: the simulation clock went back to {} s", FormatRounded(pose.time));
   next_seq_ += decision.skipped;  // frames the camera could not film: a gap in seq
   const std::uint32_t seq = next_seq_++;
   const auto time_us = static_cast<std::uint64_t>(std::llround(std::max(0.0, pose.time) * 1e6));
-  const CameraFrame frame = camera_.Capture(pose.position);
+  const CameraFrame frame = camera_.Capture(pose.position, pose.orientation);
   const bool seen = frame.state == FrameState::kSeen;
   const std::string x = seen ? camera_.PixelText(frame.pixel.x()) : "-";
   const std::string y = seen ? camera_.PixelText(frame.pixel.y()) : "-";
@@ -75,6 +85,7 @@ bool Emulator::PollOnce(Clock::time_point now) {
                            seen ? x : "", seen ? y : "")
             << std::flush;  // a killed emulator leaves every frame it sent
   }
+  if (observer_) observer_(CapturedFrame{.seq = seq, .time_us = time_us, .pose = pose, .frame = frame});
   return true;
 }
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -20,7 +21,20 @@ namespace yamor::camapp {
 struct SimulatedPose {
   double time = 0.0;                        ///< Simulation time [s].
   Eigen::Vector3d position{0.0, 0.0, 0.0};  ///< World position [m].
+  /// Orientation of the central module (the LED faces its +z).
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
 };
+
+/// One frame the emulator captured and published, for a FrameObserver.
+struct CapturedFrame {
+  std::uint32_t seq = 0;         ///< Sequence number sent.
+  std::uint64_t time_us = 0;     ///< Camera timestamp sent [µs of simulation time].
+  SimulatedPose pose;            ///< The pose filmed.
+  CameraFrame frame;             ///< What the camera made of it.
+};
+
+/// Called after each captured frame (on the polling thread; must not block long).
+using FrameObserver = std::function<void(const CapturedFrame&)>;
 
 /// Reads the simulation's pose; throws yamor::Error when it cannot.
 using PoseSource = std::function<SimulatedPose()>;
@@ -32,6 +46,10 @@ struct EmulatorOptions {
   double latency = 0.04;            ///< Wall seconds from capture to sending [s], in [0, 10].
   double poll_interval = 0.005;     ///< Wall seconds between polls of the pose [s], in (0, 1].
   std::uint32_t first_seq = 0;      ///< Sequence number of the first frame.
+  /// Point the LED along the central module's axis that is nearest to up in
+  /// the first pose polled (robots start standing as built); false: keep
+  /// camera.led_axis.
+  bool led_axis_from_first_pose = true;
 };
 
 /// The truth log's CSV header (one row per frame, see Emulator).
@@ -49,6 +67,9 @@ class Emulator {
   /// per distinct message and no frame is made), captures a frame if the
   /// frame clock says so, and publishes it. True when a frame was captured.
   bool PollOnce(std::chrono::steady_clock::time_point now);
+
+  /// Calls `observer` after each captured frame (replaces any earlier one).
+  void SetFrameObserver(FrameObserver observer) { observer_ = std::move(observer); }
 
   /// Polls every poll_interval until `stop` returns true.
   void Run(const std::function<bool()>& stop);
@@ -71,6 +92,7 @@ class Emulator {
   std::uint64_t frames_ = 0;
   std::optional<SimulatedPose> first_pose_;
   std::string last_error_;
+  FrameObserver observer_;
 };
 
 }  // namespace yamor::camapp

@@ -8,6 +8,7 @@
 //   yamor-camapp --listen 127.0.0.1:0 --write-calibration camera.txt --truth truth.csv
 //   yamor-camapp --noise 0.3 --dropout 0.05 --latency 0.08 --seed 7
 //   yamor-camapp --calibration-only --write-calibration camera.txt --led-height 0.03
+//   yamor-camapp --frames pictures --frames-every 5   # the camera's picture, 5 fps
 //
 // stdout: "yamor-camapp: listening on ADDR:PORT" once serving, then
 // "yamor-camapp: calibration FILE" once the calibration file is written.
@@ -31,6 +32,7 @@
 #include "common/log.h"
 #include "common/status.h"
 #include "tools/camapp/camapp_server.h"
+#include "tools/camapp/camera_picture.h"
 #include "tools/camapp/emulator.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -76,7 +78,9 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   CameraOptions& camera = options.camera;
   std::string yamord = "127.0.0.1:2224";
   std::string listen = "127.0.0.1:2225";
-  std::string calibration_file, truth_file, log_level = "info";
+  std::string calibration_file, truth_file, frames_folder, log_level = "info";
+  int frames_every = 1;
+  std::string led_axis = "auto";
   std::optional<double> led_height;
   bool calibration_only = false;
   bool subpixel = false;
@@ -95,6 +99,15 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   app.add_option("--dropout", camera.dropout, "Probability that a frame misses the LED, [0, 1)")
       ->capture_default_str();
   app.add_flag("--subpixel", subpixel, "Send pixels with 3 decimals instead of CamApp's integers");
+  app.add_option("--led-axis", led_axis,
+                 "Axis of the central module the LED faces: x, -x, y, -y, z, -z, or auto (the "
+                 "one pointing up in the first pose filmed)")
+      ->check(CLI::IsMember({"auto", "x", "-x", "y", "-y", "z", "-z"}))
+      ->capture_default_str();
+  app.add_option("--led-cone", camera.led_cone,
+                 "Half-angle of the LED's emission cone around the central module's +z [deg]; "
+                 "a robot turned further away from the lens hides it")
+      ->capture_default_str();
   app.add_option("--seed", camera.seed, "Seed of the noise and the dropouts")->capture_default_str();
   app.add_option("--height", camera.camera_height, "Lens above the ground [m]")->capture_default_str();
   app.add_option("--camera-x", camera.camera_x, "Ground point below the lens, x [m]")->capture_default_str();
@@ -117,6 +130,10 @@ int Run(int argc, char** argv, const sigset_t& signals) {
                "Write --write-calibration (needs --led-height) and exit without serving");
   app.add_option("--truth", truth_file,
                  "Write every frame's true position and what was sent as CSV");
+  app.add_option("--frames", frames_folder,
+                 "Write the camera's picture of the frames (frame-SEQ.png, frames.csv) into this folder");
+  app.add_option("--frames-every", frames_every, "With --frames: a picture of every N-th frame")
+      ->capture_default_str();
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off");
   try {
     app.parse(argc, argv);
@@ -134,6 +151,11 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   camera.p1 = tangential[0];
   camera.p2 = tangential[1];
   camera.integer_pixels = !subpixel;
+  options.led_axis_from_first_pose = led_axis == "auto";
+  if (led_axis != "auto") {
+    camera.led_axis = Eigen::Vector3d::Zero();
+    camera.led_axis[led_axis.back() - 'x'] = led_axis.front() == '-' ? -1.0 : 1.0;
+  }
 
   if (calibration_only) {
     if (calibration_file.empty() || !led_height) {
@@ -163,9 +185,39 @@ int Run(int argc, char** argv, const sigset_t& signals) {
     if (!s.ok()) {
       throw Error(static_cast<StatusCode>(s.error_code()), "yamord " + yamord + ": " + s.error_message());
     }
-    return SimulatedPose{r.time(), {r.position().x(), r.position().y(), r.position().z()}};
+    const auto& q = r.orientation();
+    Eigen::Quaterniond orientation(q.w(), q.x(), q.y(), q.z());
+    if (orientation.norm() < 1e-9) orientation = Eigen::Quaterniond::Identity();  // a peer without it
+    return SimulatedPose{r.time(), {r.position().x(), r.position().y(), r.position().z()}, orientation};
   };
   Emulator emulator(options, server, std::move(source), truth.get());
+  std::unique_ptr<PictureRecorder> pictures;
+  if (!frames_folder.empty()) {
+    PinholeRenderer render = [&stub, &yamord](const PinholeRequest& request) {
+      v1::RenderFrameRequest ask;
+      ask.mutable_camera()->set_kind(v1::CAMERA_TOP);
+      ask.mutable_camera()->mutable_target()->set_x(request.target.x());
+      ask.mutable_camera()->mutable_target()->set_y(request.target.y());
+      ask.mutable_camera()->mutable_target()->set_z(request.target.z());
+      ask.mutable_camera()->set_height(request.height);
+      ask.mutable_camera()->set_fov(request.fov);
+      ask.set_width(static_cast<uint32_t>(request.width));
+      ask.set_height(static_cast<uint32_t>(request.height_px));
+      ask.set_hide_labels(true);
+      ask.set_hide_legend(true);
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+      v1::RenderFrameResponse r;
+      const grpc::Status s = stub->RenderFrame(&context, ask, &r);
+      if (!s.ok()) {
+        throw Error(static_cast<StatusCode>(s.error_code()), "yamord " + yamord + ": " + s.error_message());
+      }
+      return std::pair{std::vector<uint8_t>(r.png().begin(), r.png().end()), r.time()};
+    };
+    pictures = std::make_unique<PictureRecorder>(emulator.camera(), frames_folder, frames_every, std::move(render));
+    emulator.SetFrameObserver([&pictures](const CapturedFrame& frame) { pictures->Offer(frame); });
+    Log().info("camapp: pictures of every {}. frame into {}", frames_every, frames_folder);
+  }
   if (!calibration_file.empty() && led_height) WriteCalibration(emulator.camera(), *led_height, calibration_file);
   std::cout << "yamor-camapp: listening on " << address << ":" << server.port() << std::endl;
   Log().info("camapp: filming yamord {} at {} Hz, serving on {}:{}", yamord, options.fps, address,
@@ -193,6 +245,11 @@ int Run(int argc, char** argv, const sigset_t& signals) {
     throw;
   }
   signal_thread.join();
+  if (pictures) {
+    pictures->Drain();
+    Log().info("camapp: {} pictures written, {} skipped while rendering, {} failed", pictures->written(),
+               pictures->skipped(), pictures->failed());
+  }
   Log().info("camapp: stopped after {} frames", emulator.frames());
   return 0;
 }
