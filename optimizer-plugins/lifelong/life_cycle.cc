@@ -133,7 +133,9 @@ void LifeCycle::SetState(const std::string& state, const std::string& detail) {
   status_.detail = detail;
   status_.time = LifeTime(last_robot_time_);
   status_.ema = monitor_.ema();
+  status_.threshold = monitor_.initialised() ? monitor_.Threshold() : 0.0;
   status_.gait = current_.id;
+  if (state != "relearning") status_.relearn_trials = 0;
 }
 
 void LifeCycle::Row(double robot_time, double velocity, const std::string& event) {
@@ -147,6 +149,7 @@ void LifeCycle::Row(double robot_time, double velocity, const std::string& event
     status_.time = row.time;
     if (std::isfinite(velocity)) status_.velocity = velocity;
     status_.ema = monitor_.ema();
+    status_.threshold = monitor_.initialised() ? monitor_.Threshold() : 0.0;
   }
   row.event = event;
   row.gait = current_.id;
@@ -591,6 +594,7 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
     {
       std::lock_guard lock(mu_);
       ++status_.trials;
+      status_.relearn_trials = trials;
       status_.detail = "trial " + std::to_string(trials);
     }
     Row(t.time, t.velocity, t.verification ? "verify" : "");
