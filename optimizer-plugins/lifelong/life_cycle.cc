@@ -601,6 +601,22 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
   });
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   last_robot_time_ = port_.Now();
+  // A robot can turn over while it relearns (it walks off a table, 7.5.2):
+  // the gait that comes out is stored, and watched, with the orientation the
+  // robot has now, not the one it had when the anomaly was assessed.
+  const bool reachable = result.error_code != static_cast<int>(StatusCode::kUnavailable);
+  if (orientation_watched_ && (result.ok || (reachable && !Stopping()))) {
+    const AccelReading now = port_.ReadAccelerometer();
+    if (now.valid) last_accel_ = now;
+    if (const std::optional<Orientation> turned = Classify(now); turned && *turned != orientation) {
+      Event(last_robot_time_, "orientation_changed",
+            {{"from", JsonString(OrientationName(orientation))},
+             {"to", JsonString(OrientationName(*turned))},
+             {"during", JsonString("relearning")}});
+      orientation = *turned;
+      orientation_ = *turned;
+    }
+  }
   if (!result.ok) {
     if (result.error_code == static_cast<int>(StatusCode::kUnavailable) && !Stopping()) {
       throw Error(StatusCode::kUnavailable, result.error);  // resumed after the daemon is back

@@ -186,8 +186,9 @@ do = "upside_down"
 
 // Thesis 7.5.2 as it was run: configs/lifelong/table.toml's world, the
 // extended quadruped on a table (a static box), nothing scheduled. It walks
-// off the edge, lands on its back, and the runner sees it (velocity and
-// accelerometers) and relearns the same parameters for walking upside down.
+// to the edge, stalls with its legs over it (a velocity drop) or is already
+// over it (its accelerometers see it on its back), relearns the same
+// parameters, and the gait that comes out is an upside-down gait.
 TEST_F(LifelongE2eTest, OffTheTableTheRobotLandsUpsideDownAndRelearns) {
   const std::string scenario = Scenario("table", R"(world = ")" + kSource +
                                                      R"(/configs/lifelong/quadruped-extended-table.xml"
@@ -195,28 +196,30 @@ TEST_F(LifelongE2eTest, OffTheTableTheRobotLandsUpsideDownAndRelearns) {
   const fs::path out = dir_ / "out";
   std::string text;
   ASSERT_EQ(Run(Args(scenario, out, {"--max-anomalies", "1", "--max-time", "200"}), &text), 0) << text;
+  const std::string events = Read(out / "events.jsonl");
   EXPECT_TRUE(Events(out, "scenario_change").empty());
   const auto anomalies = Events(out, "anomaly");
-  ASSERT_EQ(anomalies.size(), 1u) << Read(out / "events.jsonl");
-  // On its back after the fall: the accelerometers name it (alone, or with
-  // the velocity drop the same window showed).
-  EXPECT_EQ(Field(anomalies[0], "trigger"), "orientation") << anomalies[0];
-  const double detected = std::stod(Field(anomalies[0], "time"));
-  EXPECT_GT(detected, 10.0) << "it walked on the table first";
-  EXPECT_LT(detected, 80.0);
+  ASSERT_EQ(anomalies.size(), 1u) << events;
+  const std::string trigger = Field(anomalies[0], "trigger");
+  EXPECT_TRUE(trigger == "velocity_drop" || trigger == "orientation") << anomalies[0];
+  EXPECT_GT(std::stod(Field(anomalies[0], "time")), 20.0) << "it walked on the table first";
   ASSERT_EQ(Events(out, "assessed").size(), 1u);
   EXPECT_EQ(Field(Events(out, "assessed")[0], "body_changed"), "false");
   EXPECT_EQ(Field(Events(out, "relearn")[0], "how"), "same parameters");
-  ASSERT_EQ(Events(out, "relearned").size(), 1u) << Read(out / "events.jsonl");
+  ASSERT_EQ(Events(out, "relearned").size(), 1u) << events;
+  // Seen on its back at the anomaly, or turned over while relearning.
+  if (trigger != "orientation") {
+    ASSERT_EQ(Events(out, "orientation_changed").size(), 1u) << events;
+    EXPECT_EQ(Field(Events(out, "orientation_changed")[0], "to"), "upside_down");
+  }
+  EXPECT_TRUE(Events(out, "orientation_not_watched").empty()) << events;
   GaitDatabase db((out / "gaits.sqlite").string(), false);
   const auto gaits = db.All();
   ASSERT_EQ(gaits.size(), 2u);
   EXPECT_EQ(gaits[0].orientation, Orientation::kUpright);
   EXPECT_EQ(gaits[1].orientation, Orientation::kUpsideDown);
   EXPECT_EQ(gaits[1].morphology_key, gaits[0].morphology_key);
-  // The windows on the table walked; the fall is a velocity step in the timeline.
-  const std::string timeline = Read(out / "timeline.csv");
-  EXPECT_NE(timeline.find(",walking,"), std::string::npos);
+  EXPECT_NE(Read(out / "timeline.csv").find(",walking,"), std::string::npos);
 }
 
 TEST_F(LifelongE2eTest, ALimpMotorIsAnEventAndKeepsTheNetwork) {
