@@ -607,7 +607,11 @@ def draw_fig7_5(folder: Path, shots: list[dict]) -> None:
         part = [r for r in rows_csv if r["gait"] == gait]
         top.plot([float(r["x"]) for r in part], [float(r["y"]) for r in part], color=colour, label=gait)
         side.plot([float(r["time"]) for r in part], [float(r["z"]) for r in part], color=colour, label=gait)
-    top.add_patch(plt.Rectangle((-0.3, -0.3), 0.6, 0.6, fill=False, hatch="//", color="grey", label="table"))
+    for box in ET.parse(TABLE_WORLD).getroot().findall("box"):  # the tables, seen from above
+        sx, sy, _ = (float(v) for v in box.get("size").split())
+        px, py, _ = (float(v) for v in box.get("position", "0 0 0").split())
+        top.add_patch(plt.Rectangle((px - sx / 2, py - sy / 2), sx, sy, fill=False, hatch="//", color="grey",
+                                    label=box.get("name", "table")))
     top.set_aspect("equal")
     top.set_xlabel("x [m]")
     top.set_ylabel("y [m]")
