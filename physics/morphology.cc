@@ -140,6 +140,9 @@ std::string EscapeXml(std::string_view text) {
       case '<': out += "&lt;"; break;
       case '>': out += "&gt;"; break;
       case '"': out += "&quot;"; break;
+      case '\n': out += "&#10;"; break;
+      case '\r': out += "&#13;"; break;
+      case '\t': out += "&#9;"; break;
       default: out.push_back(c);
     }
   }
@@ -477,9 +480,10 @@ void Morphology::ValidateBoxes() {
     const std::string label = Where(box.line) + ": box " + Quote(box.name);
     if (!names.insert(box.name).second) Fail(label + ": duplicate box name");
     for (int k = 0; k < 3; ++k) {
-      if (!std::isfinite(box.size[k]) || box.size[k] <= 0 || box.size[k] > kMaxStaticBoxExtent) {
-        Fail(label + ": size=" + Quote(FormatTriple(box.size)) +
-             " needs three edge lengths in (0, " + FormatDouble(kMaxStaticBoxExtent) + "] m (" +
+      if (!std::isfinite(box.size[k]) || box.size[k] < kMinStaticBoxEdge ||
+          box.size[k] > kMaxStaticBoxExtent) {
+        Fail(label + ": size=" + Quote(FormatTriple(box.size)) + " needs three edge lengths in [" +
+             FormatDouble(kMinStaticBoxEdge) + ", " + FormatDouble(kMaxStaticBoxExtent) + "] m (" +
              "xyz"[k] + " is " + FormatDouble(box.size[k]) + ")");
       }
       if (!std::isfinite(box.position[k]) || std::abs(box.position[k]) > kMaxStaticBoxExtent) {

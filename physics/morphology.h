@@ -46,7 +46,7 @@ struct MorphologyConnection {
 /// Given by a world file's `<box>` elements (docs/module.md).
 struct StaticBox {
   std::string name;  ///< Name in messages (XML `name`; default "box N", N counted from 1).
-  Eigen::Vector3d size = Eigen::Vector3d::Zero();      ///< Full edge lengths [m], each > 0.
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();      ///< Full edge lengths [m], each in [0.001, 1000].
   Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< Centre in the world frame [m].
   /// Roll, pitch, yaw of the box in degrees (as the morphology's orientation).
   Eigen::Vector3d orientation_degrees = Eigen::Vector3d::Zero();
@@ -60,6 +60,8 @@ struct StaticBox {
 inline constexpr std::size_t kMaxStaticBoxes = 1024;
 /// Largest static box edge and coordinate magnitude [m].
 inline constexpr double kMaxStaticBoxExtent = 1000.0;
+/// Smallest static box edge [m] (thinner boxes make ODE's contacts degenerate).
+inline constexpr double kMinStaticBoxEdge = 0.001;
 
 /// A validated morphology with the pose of every connected module, and the
 /// static boxes of the world it is placed in (the world file carries both).

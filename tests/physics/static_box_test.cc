@@ -79,6 +79,13 @@ TEST(StaticBoxTest, ParsedWithDefaultsAndWrittenBack) {
     EXPECT_EQ(again.boxes()[i].orientation_degrees, m.boxes()[i].orientation_degrees);
   }
   EXPECT_EQ(again.ToXml(), m.ToXml());
+  // Names with XML's special characters and line breaks survive the round trip.
+  const Morphology odd = Morphology::Parse(
+      OneModuleXml("  <box name=\"a &quot;b&quot; &lt;&amp;&gt;&#10;c\" size=\"1 1 1\" position=\"5 0 0.5\"/>\n"),
+      "w.xml");
+  EXPECT_EQ(odd.boxes()[0].name, "a \"b\" <&>\nc");
+  EXPECT_EQ(Morphology::Parse(odd.ToXml(), "again").boxes()[0].name, odd.boxes()[0].name);
+  EXPECT_EQ(Morphology::Parse(odd.ToXml(), "again").ToXml(), odd.ToXml());
   // A world without boxes writes none.
   EXPECT_THAT(Morphology::LoadFile(kWorlds + "snake.xml").ToXml(), ::testing::Not(HasSubstr("<box")));
 }
@@ -97,6 +104,7 @@ TEST(StaticBoxTest, BadBoxesAreRejectedNamingTheValueFileAndLine) {
       {"<box name=\"t\" size=\"0.5 0.5 0.5\" position=\"0 inf 0\"/>", "position=\"0 inf 0\""},
       {"<box name=\"t\" size=\"0.5 0.5 0.5\" position=\"0 5000 0\"/>", "(y is 5000)"},
       {"<box name=\"t\" size=\"2000 0.5 0.5\"/>", "(x is 2000)"},
+      {"<box name=\"t\" size=\"0.5 0.5 1e-300\"/>", "in [0.001, 1000] m (z is 1e-300)"},
       {"<box name=\"t\" size=\"1 1 1\" position=\"5 5 5\" orientation=\"0 x 0\"/>",
        "orientation=\"0 x 0\""},
       {"<box name=\"t\"/>", "w.xml:3: <box> is missing attribute size"},
