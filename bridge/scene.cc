@@ -56,6 +56,9 @@ render::Scene SceneOf(const physics::World& world) {
         .loose = presence == physics::ModulePresence::kLoose,
         .defective = world.ModuleDefective(id)});
   }
+  for (const physics::StaticBox& box : world.StaticBoxes()) {
+    scene.boxes.push_back(render::StaticBox{.pose = ToPose(box.Pose()), .size = box.size});
+  }
   return scene;
 }
 

@@ -11,7 +11,7 @@ namespace yamor::bridge {
 /// world (put-away modules left out) with its body and handle pose and
 /// simulation id, the central module, defects, loose modules, the module's
 /// shape (physics::ModuleBoxes), the LED on the central module's top face,
-/// the slope (from gravity) and the time. Throws yamor::Error
+/// the slope (from gravity), the world's static boxes and the time. Throws yamor::Error
 /// (FAILED_PRECONDITION) when the world is diverged: its poses are not to be
 /// trusted.
 render::Scene SceneOf(const physics::World& world);

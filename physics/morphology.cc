@@ -131,6 +131,43 @@ int AngleSteps(const char* text, const std::string& where) {
   return (modulo + module::kConnectionAngleSteps) % module::kConnectionAngleSteps;
 }
 
+// Text safe inside a double-quoted XML attribute.
+std::string EscapeXml(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\n': out += "&#10;"; break;
+      case '\r': out += "&#13;"; break;
+      case '\t': out += "&#9;"; break;
+      default: out.push_back(c);
+    }
+  }
+  return out;
+}
+
+// Three numbers separated by blanks; false unless exactly three finite ones.
+bool ParseTriple(const char* text, Eigen::Vector3d* value) {
+  if (text == nullptr) return false;
+  std::istringstream in(text);
+  Eigen::Vector3d parsed;
+  std::string word[3];
+  std::string rest;
+  if (!(in >> word[0] >> word[1] >> word[2]) || (in >> rest)) return false;
+  for (int i = 0; i < 3; ++i) {
+    if (!ParseDouble(word[i].c_str(), &parsed[i])) return false;
+  }
+  *value = parsed;
+  return true;
+}
+
+std::string FormatTriple(const Eigen::Vector3d& v) {
+  return FormatDouble(v.x()) + " " + FormatDouble(v.y()) + " " + FormatDouble(v.z());
+}
+
 std::string FormatNumber(double value) {
   std::ostringstream out;
   out << value;
@@ -228,9 +265,34 @@ Morphology Morphology::Parse(std::string_view xml, std::string_view source) {
       connection.angle_steps = angle == nullptr ? 0 : AngleSteps(angle, where);
       connection.line = element->GetLineNum();
       result.connections_.push_back(connection);
+    } else if (name == "box") {
+      reader.CheckAttributes({"name", "size", "position", "orientation"});
+      StaticBox box;
+      box.line = element->GetLineNum();
+      if (const char* box_name = element->Attribute("name")) box.name = box_name;
+      const std::string label =
+          "box " + (box.name.empty() ? std::to_string(result.boxes_.size() + 1) : Quote(box.name));
+      const char* size = reader.Required("size");
+      if (!ParseTriple(size, &box.size)) {
+        Fail(where + ": " + label + ": size=" + Quote(size) +
+             " is not three finite numbers (x y z edge lengths in metres)");
+      }
+      if (const char* position = element->Attribute("position")) {
+        if (!ParseTriple(position, &box.position)) {
+          Fail(where + ": " + label + ": position=" + Quote(position) +
+               " is not three finite numbers (x y z of the centre in metres)");
+        }
+      }
+      if (const char* orientation = element->Attribute("orientation")) {
+        if (!ParseTriple(orientation, &box.orientation_degrees)) {
+          Fail(where + ": " + label + ": orientation=" + Quote(orientation) +
+               " is not three finite numbers (roll pitch yaw in degrees)");
+        }
+      }
+      result.boxes_.push_back(std::move(box));
     } else {
       Fail(where + ": unknown element <" + std::string(name) +
-           "> (expected <module> or <connect>)");
+           "> (expected <module>, <connect> or <box>)");
     }
   }
   result.Validate();
@@ -239,9 +301,11 @@ Morphology Morphology::Parse(std::string_view xml, std::string_view source) {
 
 Morphology Morphology::Build(int central, std::vector<MorphologyModule> modules,
                              std::vector<MorphologyConnection> connections,
-                             const Eigen::Vector3d& orientation_degrees, std::string source) {
+                             const Eigen::Vector3d& orientation_degrees, std::string source,
+                             std::vector<StaticBox> boxes) {
   Morphology result;
   result.central_ = central;
+  result.boxes_ = std::move(boxes);
   result.modules_ = std::move(modules);
   result.connections_ = std::move(connections);
   result.orientation_degrees_ = orientation_degrees;
@@ -284,6 +348,7 @@ const Eigen::Isometry3d& Morphology::BodyPose(int id) const {
 }
 
 void Morphology::Validate() {
+  ValidateBoxes();
   for (size_t i = 0; i < modules_.size(); ++i) {
     const MorphologyModule& module = modules_[i];
     if (module.id < 0 || module.id > kMaxModuleId) {
@@ -416,6 +481,44 @@ void Morphology::Validate() {
   }
 }
 
+void Morphology::ValidateBoxes() {
+  if (boxes_.size() > kMaxStaticBoxes) {
+    Fail(Where(boxes_[kMaxStaticBoxes].line) + ": " + std::to_string(boxes_.size()) +
+         " static boxes, at most " + std::to_string(kMaxStaticBoxes));
+  }
+  std::set<std::string> names;
+  for (size_t i = 0; i < boxes_.size(); ++i) {
+    StaticBox& box = boxes_[i];
+    if (box.name.empty()) box.name = "box " + std::to_string(i + 1);
+    const std::string label = Where(box.line) + ": box " + Quote(box.name);
+    if (!names.insert(box.name).second) Fail(label + ": duplicate box name");
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(box.size[k]) || box.size[k] < kMinStaticBoxEdge ||
+          box.size[k] > kMaxStaticBoxExtent) {
+        Fail(label + ": size=" + Quote(FormatTriple(box.size)) + " needs three edge lengths in [" +
+             FormatDouble(kMinStaticBoxEdge) + ", " + FormatDouble(kMaxStaticBoxExtent) + "] m (" +
+             "xyz"[k] + " is " + FormatDouble(box.size[k]) + ")");
+      }
+      if (!std::isfinite(box.position[k]) || std::abs(box.position[k]) > kMaxStaticBoxExtent) {
+        Fail(label + ": position=" + Quote(FormatTriple(box.position)) +
+             " needs three finite coordinates within " + FormatDouble(kMaxStaticBoxExtent) +
+             " m of the origin (" + "xyz"[k] + " is " + FormatDouble(box.position[k]) + ")");
+      }
+      if (!std::isfinite(box.orientation_degrees[k])) {
+        Fail(label + ": orientation=" + Quote(FormatTriple(box.orientation_degrees)) +
+             " is not finite (roll pitch yaw in degrees)");
+      }
+    }
+  }
+}
+
+Eigen::Isometry3d StaticBox::Pose() const {
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = RotationFromRollPitchYaw(orientation_degrees);
+  pose.translation() = position;
+  return pose;
+}
+
 std::string Morphology::ToXml() const {
   std::ostringstream out;
   out << "<morphology central=\"" << central_ << "\"";
@@ -434,6 +537,14 @@ std::string Morphology::ToXml() const {
     out << "  <connect idfrom=\"" << c.from << "\" connfrom=\"" << ConnectorName(c.from_connector)
         << "\" idto=\"" << c.to << "\" connto=\"" << ConnectorName(c.to_connector)
         << "\" angle=\"" << c.angle_steps * 15 << "\"/>\n";
+  }
+  for (const StaticBox& box : boxes_) {
+    out << "  <box name=" << Quote(EscapeXml(box.name)) << " size=" << Quote(FormatTriple(box.size))
+        << " position=" << Quote(FormatTriple(box.position));
+    if (!box.orientation_degrees.isZero()) {
+      out << " orientation=" << Quote(FormatTriple(box.orientation_degrees));
+    }
+    out << "/>\n";
   }
   out << "</morphology>\n";
   return out.str();

@@ -5,6 +5,7 @@
 // thesis 5.4.2 places at 0). The XML format is documented in docs/module.md.
 #pragma once
 
+#include <cstddef>
 #include <filesystem>
 #include <map>
 #include <string>
@@ -40,7 +41,30 @@ struct MorphologyConnection {
   int line = 0;                                    ///< Source line (0 when built in code).
 };
 
-/// A validated morphology with the pose of every connected module.
+/// A static box of the world the robot lives in (a table, a platform, a
+/// step): never moves, collides with every module with the ground's friction.
+/// Given by a world file's `<box>` elements (docs/module.md).
+struct StaticBox {
+  std::string name;  ///< Name in messages (XML `name`; default "box N", N counted from 1).
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();      ///< Full edge lengths [m], each in [0.001, 1000].
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< Centre in the world frame [m].
+  /// Roll, pitch, yaw of the box in degrees (as the morphology's orientation).
+  Eigen::Vector3d orientation_degrees = Eigen::Vector3d::Zero();
+  int line = 0;  ///< Source line (0 when built in code).
+
+  /// The box's pose in the world frame (centre and rotation).
+  Eigen::Isometry3d Pose() const;
+};
+
+/// Most static boxes in one world (what a rendered scene can carry).
+inline constexpr std::size_t kMaxStaticBoxes = 1024;
+/// Largest static box edge and coordinate magnitude [m].
+inline constexpr double kMaxStaticBoxExtent = 1000.0;
+/// Smallest static box edge [m] (thinner boxes make ODE's contacts degenerate).
+inline constexpr double kMinStaticBoxEdge = 0.001;
+
+/// A validated morphology with the pose of every connected module, and the
+/// static boxes of the world it is placed in (the world file carries both).
 /// Thread-safety: immutable after construction; safe to share between threads.
 class Morphology {
  public:
@@ -52,11 +76,12 @@ class Morphology {
   static Morphology Parse(std::string_view xml, std::string_view source);
 
   /// Validates a morphology built in code (same rules as the XML path).
-  /// `orientation_degrees` is roll, pitch, yaw of the central module.
+  /// `orientation_degrees` is roll, pitch, yaw of the central module;
+  /// `boxes` the static boxes of its world.
   static Morphology Build(int central, std::vector<MorphologyModule> modules,
                           std::vector<MorphologyConnection> connections,
                           const Eigen::Vector3d& orientation_degrees = Eigen::Vector3d::Zero(),
-                          std::string source = "<built>");
+                          std::string source = "<built>", std::vector<StaticBox> boxes = {});
 
   /// Id of the central (tracked, LED-carrying) module.
   int central() const { return central_; }
@@ -68,6 +93,8 @@ class Morphology {
   const std::vector<MorphologyConnection>& connections() const { return connections_; }
   /// Roll, pitch, yaw (degrees) of the central module in the robot frame.
   const Eigen::Vector3d& orientation_degrees() const { return orientation_degrees_; }
+  /// Static boxes of the world, in declaration order.
+  const std::vector<StaticBox>& boxes() const { return boxes_; }
 
   /// True when a module with this id exists.
   bool Contains(int id) const { return index_.count(id) != 0; }
@@ -84,6 +111,7 @@ class Morphology {
  private:
   Morphology() = default;
   void Validate();
+  void ValidateBoxes();
   std::string Where(int line) const;
 
   int central_ = 0;
@@ -91,6 +119,7 @@ class Morphology {
   std::vector<MorphologyModule> modules_;
   std::vector<MorphologyConnection> connections_;
   Eigen::Vector3d orientation_degrees_ = Eigen::Vector3d::Zero();
+  std::vector<StaticBox> boxes_;
   std::map<int, size_t> index_;                  // id -> modules_ index
   std::map<int, Eigen::Isometry3d> body_poses_;  // connected modules only
 };

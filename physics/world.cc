@@ -8,6 +8,7 @@
 
 #include <ode/ode.h>
 
+#include "common/format.h"
 #include "common/log.h"
 #include "common/status.h"
 #include "physics/box_overlap.h"
@@ -41,6 +42,10 @@ void ToOde(const Eigen::Matrix3d& m, dMatrix3 r) {
 }
 
 Eigen::Vector3d ToEigen3(const dReal* v) { return Eigen::Vector3d(v[0], v[1], v[2]); }
+
+std::string FormatVector(const Eigen::Vector3d& v) {
+  return "(" + FormatDouble(v.x()) + ", " + FormatDouble(v.y()) + ", " + FormatDouble(v.z()) + ")";
+}
 
 
 void CheckFinite(double value, const char* what) {
@@ -95,6 +100,35 @@ void CheckOptions(const WorldOptions& o) {
   positive(o.servo.lock_gain, "servo.lock_gain");
   positive(o.accelerometer.count_size, "accelerometer.count_size");
   ValidateAccelerometerSpec(o.accelerometer);
+}
+
+// A static box as the overlap test sees it.
+OrientedBox ToOriented(const StaticBox& box) {
+  return OrientedBox{.pose = box.Pose(), .half_size = box.size / 2};
+}
+
+// Half extents of a static box's axis-aligned bounding box in the world.
+Eigen::Vector3d WorldExtent(const StaticBox& box) {
+  return RotationFromRollPitchYaw(box.orientation_degrees).cwiseAbs() * (box.size / 2);
+}
+
+// Highest point of a static box (over its corners), world z.
+double TopOf(const StaticBox& box) { return box.position.z() + WorldExtent(box).z(); }
+
+// True when the vertical line through (x, y) crosses the box's bounding box.
+bool Above(const StaticBox& box, double x, double y) {
+  const Eigen::Vector3d extent = WorldExtent(box);
+  return std::abs(x - box.position.x()) <= extent.x() && std::abs(y - box.position.y()) <= extent.y();
+}
+
+// The height the robot stands on at (x, y): the top of the highest static box
+// whose bounding box lies under that point, else the ground (0).
+double SupportHeight(const std::vector<StaticBox>& boxes, double x, double y) {
+  double height = 0.0;
+  for (const StaticBox& box : boxes) {
+    if (Above(box, x, y)) height = std::max(height, TopOf(box));
+  }
+  return height;
 }
 
 // Guards ODE's process-wide random generator used by dWorldQuickStep.
@@ -280,9 +314,12 @@ struct World::Impl {
           ModuleWorldBoxes(morphology.BodyPose(m.id), morphology.Module(m.id).StartAngle());
       boxes.insert(boxes.end(), module_boxes.begin(), module_boxes.end());
     }
+    // Standing on the highest static box under the central module, if any.
     const Eigen::Vector3d central = morphology.BodyPose(morphology.central()).translation();
+    const double support = SupportHeight(morphology.boxes(), 0.0, 0.0);
     const Eigen::Translation3d shift(-central.x(), -central.y(),
-                                     options.drop_gap - physics::LowestPoint(boxes));
+                                     support + options.drop_gap - physics::LowestPoint(boxes));
+    CheckStaticBoxesClear(shift);
     std::vector<std::array<PartMotion, 2>> motion(modules.size());
     // Every servo starts at its morphology angle and holds it (set-point).
     std::vector<double> servo(modules.size(), 0.0);
@@ -296,6 +333,32 @@ struct World::Impl {
       motion[i][1].pose = PartPose(body, Part::kHandle, start);
     }
     Build(motion, servo);
+  }
+
+  // Refuses a world whose robot, placed by `shift` (robot frame -> world),
+  // starts inside a static box: ODE would push the two apart violently.
+  void CheckStaticBoxesClear(const Eigen::Translation3d& shift) const {
+    for (const StaticBox& box : morphology.boxes()) {
+      const OrientedBox obstacle = ToOriented(box);
+      for (const ModuleState& m : modules) {
+        if (!m.simulated()) continue;
+        const auto module_boxes = ModuleWorldBoxes(shift * morphology.BodyPose(m.id),
+                                                   morphology.Module(m.id).StartAngle());
+        for (size_t b = 0; b < module_boxes.size(); ++b) {
+          if (BoxesOverlap(obstacle, module_boxes[b], kRoomTolerance)) {
+            const std::string where =
+                box.line > 0 ? morphology.source() + ":" + std::to_string(box.line)
+                             : morphology.source();
+            throw Error(StatusCode::kInvalidArgument,
+                        where + ": box \"" + box.name + "\" (size " + FormatVector(box.size) +
+                            " at " + FormatVector(box.position) + ") overlaps module " +
+                            std::to_string(m.id) + " (" + std::string(ModuleBoxes()[b].name) +
+                            ") where the robot starts (central module above the origin, on "
+                            "the highest box under it or the ground)");
+          }
+        }
+      }
+    }
   }
 
   // Creates the ODE world with the current connection graph; every simulated
@@ -319,6 +382,15 @@ struct World::Impl {
     contacts = dJointGroupCreate(0);
     ground = dCreatePlane(space, 0, 0, 1, 0);
     dGeomSetData(ground, nullptr);
+    // Static boxes: geoms without a body, tagged like the ground (its friction).
+    for (const StaticBox& box : morphology.boxes()) {
+      dGeomID geom = dCreateBox(space, box.size.x(), box.size.y(), box.size.z());
+      dGeomSetPosition(geom, box.position.x(), box.position.y(), box.position.z());
+      dMatrix3 rotation;
+      ToOde(box.Pose().linear(), rotation);
+      dGeomSetRotation(geom, rotation);
+      dGeomSetData(geom, nullptr);
+    }
 
     // Rigid groups: union-find over parts, merged through every connection.
     DisjointSets sets(modules.size() * 2);
@@ -483,6 +555,8 @@ struct World::Impl {
     const auto tag_b = reinterpret_cast<uintptr_t>(dGeomGetData(b));
     // A module's handle turns about its own body: never collide the two.
     if (tag_a != 0 && tag_b != 0 && (tag_a - 1) / 2 == (tag_b - 1) / 2) return;
+    // The ground and static boxes never move: nothing to solve between them.
+    if (dGeomGetBody(a) == nullptr && dGeomGetBody(b) == nullptr) return;
     const bool with_ground = tag_a == 0 || tag_b == 0;
     AddContactJoints(self->world, self->contacts, a, b,
                      with_ground ? self->ground_friction : self->options.module_friction,
@@ -687,8 +761,18 @@ struct World::Impl {
       }
       newcomer = ModuleWorldBoxes(motion[si][0].pose, 0.0);
     }
-    // Room: the newcomer against every simulated module; after a lift, the
-    // robot against loose modules too.
+    // Room: the newcomer against every static box, every simulated module;
+    // after a lift, the robot against loose modules too.
+    for (const StaticBox& obstacle : morphology.boxes()) {
+      for (size_t a = 0; a < newcomer.size(); ++a) {
+        if (BoxesOverlap(newcomer[a], ToOriented(obstacle), kRoomTolerance)) {
+          throw Error(StatusCode::kFailedPrecondition,
+                      what + ": no room, module " + std::to_string(from) + " (" +
+                          std::string(ModuleBoxes()[a].name) + ") would overlap box \"" +
+                          obstacle.name + "\"");
+        }
+      }
+    }
     for (size_t i = 0; i < modules.size(); ++i) {
       if (i == si || !modules[i].simulated()) continue;
       const auto boxes = ModuleWorldBoxes(motion[i][0].pose, servo[i]);
@@ -825,7 +909,8 @@ Morphology World::CurrentMorphology() const {
   }
   try {
     return Morphology::Build(initial.central(), std::move(modules), std::move(connections),
-                             initial.orientation_degrees(), initial.source() + ", reconfigured");
+                             initial.orientation_degrees(), initial.source() + ", reconfigured",
+                             initial.boxes());
   } catch (const Error& e) {
     throw Error(StatusCode::kFailedPrecondition,
                 std::string("the robot as it is now has no valid morphology at its starting "
@@ -835,6 +920,8 @@ Morphology World::CurrentMorphology() const {
 }
 
 const WorldOptions& World::options() const { return impl_->options; }
+
+const std::vector<StaticBox>& World::StaticBoxes() const { return impl_->morphology.boxes(); }
 
 void World::Step() { impl_->Step(); }
 
@@ -957,7 +1044,9 @@ void World::TurnUpsideDown() {
     dBodySetLinearVel(group.body, 0, 0, 0);
     dBodySetAngularVel(group.body, 0, 0, 0);
   }
-  const double lift = impl_->options.drop_gap - impl_->LowestPoint();
+  // Back at rest on what is under the central module: a static box or the ground.
+  const double support = SupportHeight(impl_->morphology.boxes(), pivot.x(), pivot.y());
+  const double lift = support + impl_->options.drop_gap - impl_->LowestPoint();
   for (const Impl::Group& group : impl_->groups) {
     const dReal* p = dBodyGetPosition(group.body);
     dBodySetPosition(group.body, p[0], p[1], p[2] + lift);

@@ -76,13 +76,18 @@ struct DivergenceInfo {
 /// One robot in its own ODE world. Building a world from a Morphology places
 /// the robot resting on flat ground (lowest point `drop_gap` above z = 0, the
 /// central module above the origin), every servo at its morphology starting
-/// angle (the set-point too) with its motor on.
+/// angle (the set-point too) with its motor on. The morphology's static boxes
+/// (tables, platforms) are fixed in the world and collide with the modules
+/// with the ground's friction; a robot whose central module is above a box
+/// starts standing on the highest such box instead of the ground.
 /// Thread-safety: not thread-safe; one thread at a time may use a World (it may
 /// change threads between calls). Worlds are independent: different threads may
 /// each run their own World concurrently.
 class World {
  public:
-  /// Builds the world. Throws kInvalidArgument for bad options.
+  /// Builds the world. Throws kInvalidArgument for bad options and for a
+  /// static box that overlaps the robot where it starts (naming the box, its
+  /// file and line, and the module).
   explicit World(Morphology morphology, WorldOptions options = WorldOptions());
   ~World();
   World(World&&) noexcept;
@@ -103,6 +108,8 @@ class World {
   Morphology CurrentMorphology() const;
   /// The options the world was built with.
   const WorldOptions& options() const;
+  /// The static boxes of the world (the morphology's), in declaration order.
+  const std::vector<StaticBox>& StaticBoxes() const;
 
   /// Advances the world by one fixed step. Throws kFailedPrecondition when the
   /// world is diverged; a step that diverges returns normally with Diverged() set.
@@ -185,7 +192,8 @@ class World {
   /// Current gravity vector in the world frame, m/s².
   Eigen::Vector3d Gravity() const;
   /// Turns the robot upside down about its central module (rotation of π about
-  /// the world x axis through it), sets it back on the ground at rest.
+  /// the world x axis through it), sets it back at rest on the ground or on
+  /// the highest static box under its central module.
   void TurnUpsideDown();
 
   /// Accelerometer of a module (MMA7260Q model, module frame, seeded noise).

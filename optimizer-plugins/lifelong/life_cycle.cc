@@ -133,7 +133,9 @@ void LifeCycle::SetState(const std::string& state, const std::string& detail) {
   status_.detail = detail;
   status_.time = LifeTime(last_robot_time_);
   status_.ema = monitor_.ema();
+  status_.threshold = monitor_.initialised() ? monitor_.Threshold() : 0.0;
   status_.gait = current_.id;
+  if (state != "relearning") status_.relearn_trials = 0;
 }
 
 void LifeCycle::Row(double robot_time, double velocity, const std::string& event) {
@@ -147,6 +149,7 @@ void LifeCycle::Row(double robot_time, double velocity, const std::string& event
     status_.time = row.time;
     if (std::isfinite(velocity)) status_.velocity = velocity;
     status_.ema = monitor_.ema();
+    status_.threshold = monitor_.initialised() ? monitor_.Threshold() : 0.0;
   }
   row.event = event;
   row.gait = current_.id;
@@ -591,12 +594,29 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
     {
       std::lock_guard lock(mu_);
       ++status_.trials;
+      status_.relearn_trials = trials;
       status_.detail = "trial " + std::to_string(trials);
     }
     Row(t.time, t.velocity, t.verification ? "verify" : "");
   });
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   last_robot_time_ = port_.Now();
+  // A robot can turn over while it relearns (it walks off a table, 7.5.2):
+  // the gait that comes out is stored, and watched, with the orientation the
+  // robot has now, not the one it had when the anomaly was assessed.
+  const bool reachable = result.error_code != static_cast<int>(StatusCode::kUnavailable);
+  if (orientation_watched_ && (result.ok || (reachable && !Stopping()))) {
+    const AccelReading now = port_.ReadAccelerometer();
+    if (now.valid) last_accel_ = now;
+    if (const std::optional<Orientation> turned = Classify(now); turned && *turned != orientation) {
+      Event(last_robot_time_, "orientation_changed",
+            {{"from", JsonString(OrientationName(orientation))},
+             {"to", JsonString(OrientationName(*turned))},
+             {"during", JsonString("relearning")}});
+      orientation = *turned;
+      orientation_ = *turned;
+    }
+  }
   if (!result.ok) {
     if (result.error_code == static_cast<int>(StatusCode::kUnavailable) && !Stopping()) {
       throw Error(StatusCode::kUnavailable, result.error);  // resumed after the daemon is back

@@ -82,6 +82,8 @@ struct LifeStatus {
   long long trials = 0;            ///< Recall and relearning trials on the robot.
   int gaps = 0;                    ///< Times the daemon went away.
   std::string detail;              ///< What is happening ("trial 12", ...).
+  double threshold = 0;            ///< The anomaly threshold t now [m/s] (0 while v is unknown).
+  long long relearn_trials = 0;    ///< Trials of the relearning in progress (0 outside one).
 };
 
 /// What a life ended with.

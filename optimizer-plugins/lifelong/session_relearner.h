@@ -60,11 +60,13 @@ class SessionRelearner final : public Relearner {
 
   /// The plugin in use.
   const optimizer::LoadedPlugin& plugin() const { return plugin_; }
+  /// The plugin's field values given (--set) with the mode's default budget
+  /// (max_evaluations) filled in when not given.
+  std::map<std::string, std::string> Fields() const;
 
  private:
   RelearnResult Online(const RelearnRequest& request, const std::function<void(const Trial&)>& on_trial);
   RelearnResult Model(const RelearnRequest& request, const std::function<void(const Trial&)>& on_trial);
-  std::map<std::string, std::string> Fields() const;
 
   DaemonPort& port_;
   RelearnerOptions options_;

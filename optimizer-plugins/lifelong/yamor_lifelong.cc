@@ -29,6 +29,7 @@
 #include "optimizer-plugins/lifelong/life_cycle.h"
 #include "optimizer-plugins/lifelong/scenario.h"
 #include "optimizer-plugins/lifelong/session_relearner.h"
+#include "optimizer-plugins/lifelong/status_service.h"
 #include "optimizer-plugins/lifelong/timeline.h"
 
 namespace fs = std::filesystem;
@@ -100,7 +101,7 @@ int main(int argc, char** argv) {
       "network when the body changed and relearns with an optimizer plugin.\n"
       "Example: yamor-lifelong --host 127.0.0.1:2224 --scenario configs/lifelong/transform.toml --out life1"};
   std::string host = "127.0.0.1:2224", config_path, scenario_path, out_dir, db_path, morphology_path;
-  std::string mode = "online", plugin = "powell", log_level = "info", model_hosts;
+  std::string mode = "online", plugin = "powell", log_level = "info", model_hosts, listen;
   std::vector<std::string> sets, plugin_dirs;
   LifeOptions life;
   RelearnerOptions relearn;
@@ -161,6 +162,9 @@ int main(int argc, char** argv) {
   app.add_option("--sample-interval", port_options.live.sample_interval,
                  "Robot time between position samples [s]")->capture_default_str();
   app.add_flag("--starts-upside-down", life.starts_upside_down, "The robot starts on its back");
+  app.add_option("--listen", listen,
+                 "Serve the status service (yamor.v1.Lifelong: status, event stream) on HOST:PORT "
+                 "(port 0: a free one; the line 'yamor-lifelong: status on HOST:PORT' tells it)");
   app.add_flag("--no-plot", no_plot, "Do not draw timeline.png");
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
@@ -224,7 +228,8 @@ int main(int argc, char** argv) {
     life.out_dir = out_dir;
     if (db_path.empty()) db_path = (fs::path(out_dir) / "gaits.sqlite").string();
     GaitDatabase db(db_path);
-    TimelineWriter log(out_dir);
+    TimelineWriter timeline(out_dir);
+    LifeBroadcast log(timeline);  // the files, and the status service's watchers
     DaemonPort port(address.front(), port_options);
     std::optional<ScenarioPlayer> player;
     if (scenario) {
@@ -242,6 +247,22 @@ int main(int argc, char** argv) {
     }
     SessionRelearner relearner(port, relearn);
     LifeCycle cycle(port, relearner, db, log, life);
+    log.set_status([&cycle] { return cycle.Status(); });
+    std::unique_ptr<StatusServer> status_server;
+    if (!listen.empty()) {
+      StatusContext context{.mode = mode, .robot = address.front().ToString()};
+      const std::map<std::string, std::string> fields = relearner.Fields();
+      if (const auto it = fields.find(optimizer::kMaxEvaluationsField); it != fields.end()) {
+        try {
+          context.relearn_budget = std::stoull(it->second);
+        } catch (const std::exception&) {
+          // Left 0: the plugin reads the value its own way.
+        }
+      }
+      status_server = std::make_unique<StatusServer>(listen, log, context);
+      const std::string bound = listen.substr(0, listen.rfind(':'));
+      std::cout << "yamor-lifelong: status on " << bound << ":" << status_server->port() << std::endl;
+    }
 
     std::cerr << "yamor-lifelong: robot at " << address.front().ToString() << ", gait " << config_path
               << (initial.problem_xml.empty() ? "" : " (with its rules)") << ", relearning " << mode << " with "
@@ -275,16 +296,23 @@ int main(int argc, char** argv) {
       }
       if (!quiet && tty) std::cerr << "\r\033[K" << ProgressLine(cycle.Status()) << "\n";
     });
+    // The status service's streams end once what was logged has been sent.
+    auto end_service = [&] {
+      log.End();
+      if (status_server) status_server->Shutdown();
+    };
     LifeSummary summary;
     try {
       summary = cycle.Run(initial);
     } catch (...) {
       done.store(true);
       watcher.join();
+      end_service();
       throw;
     }
     done.store(true);
     watcher.join();
+    end_service();
 
     if (!no_plot) {
       std::error_code ec;

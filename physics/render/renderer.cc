@@ -19,7 +19,6 @@ using internal::GlFunctions;
 
 constexpr Color kGridFineColor = {0.71f, 0.69f, 0.63f};
 constexpr Color kGridCoarseColor = {0.58f, 0.56f, 0.51f};
-constexpr Color kStaticBoxColor = {0.62f, 0.58f, 0.52f};
 constexpr Color kLedColor = {1.0f, 0.08f, 0.05f};
 constexpr Color kLegendColor = {0.16f, 0.16f, 0.18f};
 constexpr Color kTextColor = {1.0f, 1.0f, 1.0f};

@@ -57,6 +57,8 @@ struct RenderOptions {
 
 /// Colour of the ground (without grid and shadows), RGB 0..1.
 inline constexpr Color kGroundColor = {0.78f, 0.76f, 0.70f};
+/// Colour of a static box (a table, a platform) without lighting, RGB 0..1.
+inline constexpr Color kStaticBoxColor = {0.62f, 0.58f, 0.52f};
 /// Colour of the background above the horizon, RGB 0..1.
 inline constexpr Color kSkyColor = {0.86f, 0.90f, 0.95f};
 

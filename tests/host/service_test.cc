@@ -543,6 +543,77 @@ TEST_F(ServiceTest, GetMorphologyAndEvaluateUseTheTransformedRobot) {
   EXPECT_EQ(reset.morphology_xml(), before.morphology_xml());
 }
 
+// Issue 13 (7.5.2): a world's static boxes travel with its morphology: an
+// opened world keeps them (GetMorphology), Evaluate on the open world and on
+// a given morphology simulates them, and bad boxes are refused naming them.
+TEST_F(ServiceTest, StaticBoxesTravelWithTheWorldIntoEvaluate) {
+  v1::Host::Stub& stub = *stub_;
+  v1::GetMorphologyResponse plain;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::GetMorphology, Empty(), &plain));
+  std::string xml = plain.morphology_xml();
+  // A platform 3 m wide and 30 cm high: the robot stays on it in 3 s.
+  xml.insert(xml.rfind("</morphology>"),
+             "  <box name=\"platform\" size=\"3 3 0.3\" position=\"0 0 0.15\"/>\n");
+  v1::OpenSimulationRequest open;
+  open.set_morphology_xml(xml);
+  open.set_seed(3);
+  EXPECT_OK(Call(stub, &v1::Host::Stub::OpenSimulation, open));
+  v1::GetMorphologyResponse morphology;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::GetMorphology, Empty(), &morphology));
+  EXPECT_NE(morphology.morphology_xml().find("<box name=\"platform\" size=\"3 3 0.3\""),
+            std::string::npos)
+      << morphology.morphology_xml();
+
+  v1::EvaluateRequest evaluate;  // on the open world
+  evaluate.set_config_xml(testing::ReadSourceFile("configs/robots/quadruped.xml"));
+  evaluate.set_warmup(1.0);
+  evaluate.set_duration(2.0);
+  evaluate.set_seed(4);
+  v1::EvaluateResponse on_platform;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, evaluate, &on_platform));
+  EXPECT_FALSE(on_platform.diverged()) << on_platform.divergence();
+  EXPECT_GT(on_platform.final_pose().position().z(), 0.3);
+  v1::EvaluateRequest given = evaluate;
+  given.set_morphology_xml(xml);
+  v1::EvaluateResponse given_platform;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, given, &given_platform));
+  EXPECT_EQ(given_platform.velocity(), on_platform.velocity());
+  EXPECT_EQ(given_platform.final_pose().position().z(), on_platform.final_pose().position().z());
+  given.set_morphology_xml(plain.morphology_xml());
+  v1::EvaluateResponse on_floor;
+  EXPECT_OK(Call(stub, &v1::Host::Stub::Evaluate, given, &on_floor));
+  EXPECT_LT(on_floor.final_pose().position().z(), 0.2);
+  EXPECT_NEAR(on_floor.final_pose().position().z() + 0.3, on_platform.final_pose().position().z(),
+              0.02);
+
+  // Bad boxes: the value and the box named, never a crash.
+  struct Case {
+    std::string box;
+    std::string mention;
+  };
+  const Case cases[] = {
+      {"<box name=\"flat\" size=\"1 1 0\"/>", "box \"flat\": size=\"1 1 0\""},
+      {"<box name=\"nan\" size=\"1 1 1\" position=\"nan 0 0\"/>", "position=\"nan 0 0\""},
+      {"<box name=\"wall\" size=\"0.05 0.6 0.2\" position=\"0.09 0 0.1\"/>",
+       "box \"wall\""},
+  };
+  for (const Case& c : cases) {
+    std::string bad = plain.morphology_xml();
+    bad.insert(bad.rfind("</morphology>"), "  " + c.box + "\n");
+    v1::EvaluateRequest request = evaluate;
+    request.set_morphology_xml(bad);
+    const grpc::Status evaluated = Call(stub, &v1::Host::Stub::Evaluate, request);
+    EXPECT_EQ(evaluated.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.box;
+    EXPECT_NE(evaluated.error_message().find(c.mention), std::string::npos)
+        << evaluated.error_message();
+    v1::OpenSimulationRequest reopen;
+    reopen.set_morphology_xml(bad);
+    const grpc::Status opened = Call(stub, &v1::Host::Stub::OpenSimulation, reopen);
+    EXPECT_EQ(opened.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << c.box;
+    EXPECT_NE(opened.error_message().find(c.mention), std::string::npos) << opened.error_message();
+  }
+}
+
 // An open world whose body has no valid morphology is an error for
 // GetMorphology and for Evaluate on the open world, never another body.
 TEST_F(ServiceTest, AnOpenWorldWithoutAValidMorphologyIsAFailedPrecondition) {

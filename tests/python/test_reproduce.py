@@ -268,6 +268,33 @@ def test_fig7_4_draws_one_life_through_the_transformation(tmp_path):
     assert any(e["kind"] == "relearned" for e in events)
 
 
+def test_fig7_5_films_the_fall_off_the_table_and_the_relearned_gait(tmp_path):
+    tool = BUILD / "optimizer-plugins" / "lifelong" / "yamor-lifelong"
+    if not tool.exists():
+        pytest.skip(f"not built: {tool}")
+    run_tool(REPRODUCE, "fig7-5", "--quick", "--quiet", "--out", str(tmp_path), timeout=300)
+    folder = tmp_path / "fig7-5"
+    for name in ("fig7-5.png", "fig7-5-trajectory.png", "fig7-5-timeline.png"):
+        check_png(folder / name)
+    header, frames = read_csv(folder / "fig7-5-frames.csv")
+    assert header == ["file", "time", "label"]
+    labels = [f[2] for f in frames]
+    assert labels[0] == "on the table" and "fallen, on its back" in labels, labels
+    assert labels[-1] == "walking on its back", labels
+    for f in frames:  # 480 x 360 frames: smaller than check_png's figures
+        assert (folder / f[0]).read_bytes()[:8] == PNG_SIGNATURE
+        pixels = image.imread(folder / f[0])
+        assert pixels.shape[:2] == (360, 480) and pixels.std() > 0.05, f[0]
+    header, path = read_csv(folder / "fig7-5-trajectory.csv")
+    assert header == ["time", "x", "y", "z", "gait"]
+    on_table = [float(r[3]) for r in path if r[4] == "starting gait"]
+    on_back = [float(r[3]) for r in path if r[4] == "relearned gait"]
+    assert on_table[0] > 0.4 and on_back and max(on_back) < 0.2, (on_table[:3], on_back[:3])
+    events = [json.loads(line) for line in (folder / "life" / "events.jsonl").read_text().splitlines()]
+    assert any(e["kind"] == "relearned" for e in events)
+    assert not any(e["kind"] == "scenario_change" for e in events)
+
+
 def read_csv_allowing_gaps(path: Path) -> tuple[list[str], list[list[str]]]:
     """A timeline: empty cells stand for no measurement (event rows); no NaN text."""
     text = path.read_text()

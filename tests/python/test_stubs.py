@@ -10,7 +10,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 SHIPPED = REPO / "tools" / "python" / "yamor" / "v1"
-GENERATED = ["host_pb2.py", "host_pb2.pyi", "host_pb2_grpc.py"]
+GENERATED = ["host_pb2.py", "host_pb2.pyi", "host_pb2_grpc.py",
+             "lifelong_pb2.py", "lifelong_pb2.pyi", "lifelong_pb2_grpc.py"]
 
 
 def test_shipped_stubs_are_up_to_date(tmp_path):
@@ -36,3 +37,8 @@ def test_stubs_import_and_name_every_rpc():
     stub_methods = {m.name for m in service.methods}
     assert {"GetModuleAmplitude", "Evaluate", "WatchState", "SetFreeRun"} <= stub_methods
     assert hasattr(host_pb2_grpc, "HostStub")
+    from yamor.v1 import lifelong_pb2, lifelong_pb2_grpc
+
+    life = lifelong_pb2.DESCRIPTOR.services_by_name["Lifelong"]
+    assert {m.name for m in life.methods} == {"GetLifeStatus", "WatchLife"}
+    assert hasattr(lifelong_pb2_grpc, "LifelongStub")

@@ -3,6 +3,7 @@
 // and exit codes follow the status. The real daemon is driven end to end by
 // tests/python/test_yamorctl.py.
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +31,7 @@
 #include "tools/yamorctl/tracking.h"
 #include "tools/yamorctl/yamorctl.h"
 #include "yamor/v1/host.grpc.pb.h"
+#include "yamor/v1/lifelong.grpc.pb.h"
 
 namespace yamor::yamorctl {
 namespace {
@@ -710,6 +712,87 @@ TEST(ParseModuleTargets, AllOrIds) {
            {}, {"all", "3"}, {"3", "all"}, {"x"}, {"-1"}, {"3x"}, {""}}) {
     EXPECT_THROW(ParseModuleTargets(bad), Error) << ::testing::PrintToString(bad);
   }
+}
+
+// ---- life: a running yamor-lifelong's status service -------------------------------
+
+/// A yamor-lifelong status service with a fixed status and two events.
+class FakeLife final : public v1::Lifelong::Service {
+ public:
+  grpc::Status GetLifeStatus(grpc::ServerContext*, const Empty*, v1::LifeStatus* out) override {
+    *out = Status();
+    return grpc::Status::OK;
+  }
+  grpc::Status WatchLife(grpc::ServerContext*, const v1::WatchLifeRequest* request,
+                         grpc::ServerWriter<v1::LifeUpdate>* writer) override {
+    replay_seen = request->replay();
+    for (int i = 0; i < 2; ++i) {
+      v1::LifeUpdate u;
+      u.set_index(static_cast<uint64_t>(i));
+      u.set_time(10.0 * (i + 1));
+      u.set_kind(i == 0 ? "start" : "anomaly");
+      u.set_json(i == 0 ? R"({"time":10,"kind":"start"})" : R"({"time":20,"kind":"anomaly","trigger":"orientation"})");
+      *u.mutable_status() = Status();
+      writer->Write(u);
+    }
+    return grpc::Status::OK;  // the life ended
+  }
+  static v1::LifeStatus Status() {
+    v1::LifeStatus s;
+    s.set_state("relearning");
+    s.set_time(125.5);
+    s.set_velocity(0.0123);
+    s.set_ema(0.025);
+    s.set_threshold(0.0075);
+    s.set_gait(2);
+    s.set_anomalies(1);
+    s.set_relearns(1);
+    s.set_trials(7);
+    s.set_relearn_trials(7);
+    s.set_relearn_budget(100);
+    s.set_mode("online");
+    s.set_robot("127.0.0.1:2224");
+    s.set_detail("trial 7");
+    return s;
+  }
+  std::atomic<bool> replay_seen{false};
+};
+
+TEST(YamorctlLifeTest, LifeShowsTheStatusAndWatchStreamsTheEvents) {
+  FakeLife life;
+  int port = 0;
+  grpc::ServerBuilder builder;
+  builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&life);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  ASSERT_NE(server, nullptr);
+  const std::string host = "127.0.0.1:" + std::to_string(port);
+  auto ctl = [&](std::vector<std::string> args) {
+    args.insert(args.begin(), {"--host", host});
+    std::ostringstream out, err;
+    const int code = yamorctl::Run(args, out, err);
+    return Result{code, out.str(), err.str()};
+  };
+  const Result status = ctl({"life"});
+  EXPECT_EQ(status.exit_code, 0) << status.err;
+  EXPECT_THAT(status.out, HasSubstr("relearning at t=125.5 s"));
+  EXPECT_THAT(status.out, HasSubstr("velocity 1.23 cm/s"));
+  EXPECT_THAT(status.out, HasSubstr("threshold 0.75 cm/s"));
+  EXPECT_THAT(status.out, HasSubstr("gait 2"));
+  EXPECT_THAT(status.out, HasSubstr("trial 7 of 100"));
+  const Result json = ctl({"life", "--json"});
+  EXPECT_EQ(json.exit_code, 0);
+  EXPECT_THAT(json.out, HasSubstr(R"("relearn_budget":"100")"));
+  const Result watch = ctl({"life", "--watch", "--replay"});
+  EXPECT_EQ(watch.exit_code, 0) << watch.err;
+  EXPECT_TRUE(life.replay_seen.load());
+  EXPECT_THAT(watch.out, HasSubstr("start"));
+  EXPECT_THAT(watch.out, HasSubstr(R"("trigger":"orientation")"));
+  EXPECT_EQ(std::count(watch.out.begin(), watch.out.end(), '\n'), 2);
+  server->Shutdown(std::chrono::system_clock::now());
+  // No life there: UNAVAILABLE's exit code.
+  const Result gone = ctl({"life", "--timeout", "2"});
+  EXPECT_EQ(gone.exit_code, static_cast<int>(grpc::StatusCode::UNAVAILABLE)) << gone.err;
 }
 
 }  // namespace

@@ -132,6 +132,14 @@ class Exporter {
     // priority: the ground's friction is the contact's, as in physics::World.
     out_ += "    <geom name=\"ground\" type=\"plane\" size=\"0 0 1\" priority=\"1\" friction=\"" +
             Num(options_.world.ground_friction) + " 0 0\"/>\n";
+    // Static boxes (tables, platforms): fixed geoms with the ground's friction.
+    const std::vector<physics::StaticBox>& boxes = world_.StaticBoxes();
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      out_ += "    <geom name=\"static" + std::to_string(i + 1) + "\" type=\"box\" size=\"" +
+              Vec(boxes[i].size / 2) + "\" pos=\"" + Vec(boxes[i].position) + "\" quat=\"" +
+              Quat(boxes[i].Pose().linear()) + "\" priority=\"1\" friction=\"" +
+              Num(options_.world.ground_friction) + " 0 0\"/>\n";
+    }
     for (size_t g_index = 0; g_index < groups_.size(); ++g_index) {
       if (groups_[g_index].parent < 0) WriteBody(static_cast<int>(g_index), 2);
     }

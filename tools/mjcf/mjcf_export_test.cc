@@ -243,6 +243,32 @@ TEST(MjcfExportTest, UnpoweredServosGetGearboxFrictionAndNoActuator) {
   }
 }
 
+TEST(MjcfExportTest, StaticBoxesAreFixedGeomsAndTheRobotStandsOnThem) {
+  std::string xml = Load("quadruped").ToXml();
+  xml.insert(xml.rfind("</morphology>"),
+             "  <box name=\"table\" size=\"1 0.8 0.4\" position=\"0 0 0.2\" orientation=\"0 0 90\"/>\n");
+  const std::string mjcf = ExportMjcf(physics::Morphology::Parse(xml, "table"), ExportOptions());
+  tinyxml2::XMLDocument document;
+  ASSERT_EQ(document.Parse(mjcf.c_str()), tinyxml2::XML_SUCCESS);
+  const tinyxml2::XMLElement* world = document.RootElement()->FirstChildElement("worldbody");
+  ASSERT_NE(world, nullptr);
+  const tinyxml2::XMLElement* table = nullptr;
+  for (const tinyxml2::XMLElement* g = world->FirstChildElement("geom"); g; g = g->NextSiblingElement("geom")) {
+    if (std::string(g->Attribute("name")) == "static1") table = g;
+  }
+  ASSERT_NE(table, nullptr) << mjcf;
+  EXPECT_STREQ(table->Attribute("type"), "box");
+  EXPECT_TRUE(Vec(table, "size").isApprox(Vector3d(0.5, 0.4, 0.2)));
+  EXPECT_TRUE(Vec(table, "pos").isApprox(Vector3d(0, 0, 0.2)));
+  const Isometry3d pose = PoseOf(table);
+  EXPECT_NEAR(pose.linear().col(0).y(), 1.0, 1e-9) << "yawed by 90 degrees";
+  // The robot's root body stands on the table, not on the floor.
+  const tinyxml2::XMLElement* body = world->FirstChildElement("body");
+  ASSERT_NE(body, nullptr);
+  EXPECT_GT(Vec(body, "pos").z(), 0.4);
+  EXPECT_EQ(ExportMjcf(Load("quadruped"), ExportOptions()).find("static1"), std::string::npos);
+}
+
 TEST(MjcfExportTest, BadOptionsAreRejected) {
   ExportOptions options;
   options.actuator_damping = 0;

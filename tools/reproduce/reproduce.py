@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Reproduces the thesis's chapter 4, 6 and 7 figures (yamor-characterize, yamor-optimize, yamor-lifelong).
 
-Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,all} [--out results/reproduce]
+Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,fig7-5,all} [--out results/reproduce]
                     [--build build/release] [--quick] [--hosts H:P,...] [--daemons N]
 
   fig6-3    the 64x64 landscape of the quadruped's velocity over the hip->knee
@@ -17,6 +17,12 @@ Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,all} [--out results/repr
             (configs/lifelong/transform.toml): yamor-lifelong on one daemon
             notices the change, rebuilds its CPG network and relearns
             (--mode online, the thesis's way, or model)
+  fig7-5    the quadruped's recovery after a fall (configs/lifelong/table.toml):
+            yamor-lifelong lives through the fall off a table and relearns; the
+            story is then filmed on a daemon (frames drawn headless), the
+            starting gait walking off the table and, once the robot lies on its
+            back, the gait the life relearned: a strip of frames, the
+            trajectory and its CSV
   ch4       chapter 4 in simulation (no daemons): Table 4.1 and Figures B.1-B.19
             from yamor-characterize noise and moves (seed --eval-seed), drawn by
             tools/characterize/plot_characterize.py (not with --quick)
@@ -350,7 +356,7 @@ def parse_args(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                      formatter_class=argparse.RawDescriptionHelpFormatter,
                                      epilog="\n".join(__doc__.splitlines()[4:]))
-    parser.add_argument("figure", choices=["ch4", "fig6-3", "fig6-5-7", "fig6-12", "fig7-4", "all"])
+    parser.add_argument("figure", choices=["ch4", "fig6-3", "fig6-5-7", "fig6-12", "fig7-4", "fig7-5", "all"])
     parser.add_argument("--out", default="results/reproduce", help="results folder (default %(default)s)")
     parser.add_argument("--build", default="build/release", help="build tree (default %(default)s)")
     parser.add_argument("--quick", action="store_true",
@@ -368,10 +374,10 @@ def parse_args(argv):
     parser.add_argument("--path-budget", type=int, default=None,
                         help="evaluations per Powell run of Figures 6.5-6.7 (200)")
     parser.add_argument("--budget", type=int, default=None,
-                        help="evaluations per run of Figure 6.12 (300); fig7-4: relearning trials "
+                        help="evaluations per run of Figure 6.12 (300); fig7-4, fig7-5: relearning trials "
                              "(default: the scenario's)")
     parser.add_argument("--mode", choices=["online", "model"], default="online",
-                        help="fig7-4: how yamor-lifelong relearns (default %(default)s)")
+                        help="fig7-4, fig7-5: how yamor-lifelong relearns (default %(default)s)")
     parser.add_argument("--starts", type=int, default=10, help="start points of Figure 6.12 (10)")
     parser.add_argument("--landscape", default=None,
                         help="fig6-5-7: draw on this landscape CSV instead of OUT/fig6-3/landscape.csv")
@@ -487,8 +493,195 @@ def fig7_4(args, out: Path) -> Path:
     return folder
 
 
+TABLE_SCENARIO = REPO / "configs" / "lifelong" / "table.toml"
+TABLE_WORLD = REPO / "configs" / "lifelong" / "quadruped-extended-table.xml"
+WALKING_GAIT = REPO / "configs" / "lifelong" / "quadruped-walking.xml"
+
+
+def robot_xml(problem_xml: str) -> str:
+    """The robot configuration of an optimization configuration (its rules left out)."""
+    root = ET.fromstring(problem_xml)
+    for tag in ("optimize", "constrain"):
+        for element in root.findall(tag):
+            root.remove(element)
+    return ET.tostring(root, encoding="unicode")
+
+
+def relearned_gait(db: Path) -> tuple[int, str]:
+    """The id and robot configuration of the last gait stored for walking upside down."""
+    import sqlite3
+
+    with sqlite3.connect(f"file:{db}?mode=ro", uri=True) as connection:
+        row = connection.execute(
+            "SELECT id, config_xml FROM gaits WHERE orientation = 'upside_down' ORDER BY id DESC LIMIT 1"
+        ).fetchone()
+    if row is None:
+        raise ToolError(f"{db} holds no gait for walking upside down: the life did not relearn")
+    return int(row[0]), row[1]
+
+
+def film_recovery(host: str, seed: int, gait_xml: str, folder: Path, quick: bool) -> list[dict]:
+    """Replays the fall and the recovery on `host` for the camera; returns the frames shot."""
+    sys.path.insert(0, str(REPO / "tools" / "python"))
+    import yamor  # noqa: E402
+
+    step = 0.5
+    walk_after_landing = 12.0 if quick else 40.0
+    shots: list[dict] = []
+    trajectory: list[tuple[float, float, float, float, str]] = []
+    with yamor.Host(host, timeout=60) as h:
+        h.open_simulation(morphology_file=TABLE_WORLD, seed=seed)
+        h.load_config(robot_xml(WALKING_GAIT.read_text()), "quadruped-walking.xml")
+        h.connect()
+        h.control(uart=True, cpg=True, motors=True)
+        table_top = 0.4
+
+        def shoot(label: str) -> None:
+            t = h.elapsed_time()
+            png = folder / f"frame-{len(shots) + 1:02d}.png"
+            # From the +y side: the robot walks off the table's +y edge towards the camera.
+            h.snapshot(png, camera="follow", distance=1.3, elevation=0.45, azimuth=1.2,
+                       width=480, height=360, labels=False, legend=False)
+            shots.append({"file": png.name, "time": t, "label": label})
+
+        def sample(phase: str) -> None:
+            p = h.simulated_position().xyz
+            trajectory.append((h.elapsed_time(), p[0], p[1], p[2], phase))
+
+        shoot("on the table")
+        landed_at = None
+        next_shot = 6.0
+        while h.elapsed_time() < 120.0:
+            h.sleep(step)
+            sample("starting gait")
+            t, z = trajectory[-1][0], trajectory[-1][3]
+            if landed_at is None and z < table_top - 0.2:
+                landed_at = t
+                h.sleep(2.0)  # at rest on the floor
+                sample("starting gait")
+                shoot("fallen, on its back")
+                break
+            if t >= next_shot:
+                shoot("walking on the table")
+                next_shot += 6.0
+        if landed_at is None:
+            raise ToolError("the robot did not walk off the table within 120 s")
+        # The relearned gait takes over, as the life's did.
+        h.load_config(gait_xml, "relearned gait")
+        h.refresh()
+        start = h.elapsed_time()
+        next_shot = start + walk_after_landing / 3
+        while h.elapsed_time() < start + walk_after_landing:
+            h.sleep(step)
+            sample("relearned gait")
+            if h.elapsed_time() >= next_shot - 1e-9:
+                shoot("walking on its back")
+                next_shot += walk_after_landing / 3
+    write_csv(folder / "fig7-5-trajectory.csv", ["time", "x", "y", "z", "gait"], trajectory)
+    return shots
+
+
+def draw_fig7_5(folder: Path, shots: list[dict]) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.image as mpimg
+    import matplotlib.pyplot as plt
+
+    columns = 4
+    rows = (len(shots) + columns - 1) // columns
+    fig, axes = plt.subplots(rows, columns, figsize=(3.2 * columns, 2.6 * rows), squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    for ax, shot in zip(axes.flat, shots):
+        ax.imshow(mpimg.imread(folder / shot["file"]))
+        ax.set_title(f"{shot['time']:.0f} s: {shot['label']}", fontsize=9)
+    fig.suptitle("Figure 7.5: quadruped recovery after a fall (off a 40 cm table)")
+    fig.tight_layout()
+    fig.savefig(folder / "fig7-5.png", dpi=100)
+    plt.close(fig)
+
+    rows_csv = read_rows(folder / "fig7-5-trajectory.csv")
+    fig, (top, side) = plt.subplots(1, 2, figsize=(11, 4))
+    for gait, colour in (("starting gait", "tab:blue"), ("relearned gait", "tab:red")):
+        part = [r for r in rows_csv if r["gait"] == gait]
+        top.plot([float(r["x"]) for r in part], [float(r["y"]) for r in part], color=colour, label=gait)
+        side.plot([float(r["time"]) for r in part], [float(r["z"]) for r in part], color=colour, label=gait)
+    for box in ET.parse(TABLE_WORLD).getroot().findall("box"):  # the tables, seen from above
+        sx, sy, _ = (float(v) for v in box.get("size").split())
+        px, py, _ = (float(v) for v in box.get("position", "0 0 0").split())
+        top.add_patch(plt.Rectangle((px - sx / 2, py - sy / 2), sx, sy, fill=False, hatch="//", color="grey",
+                                    label=box.get("name", "table")))
+    top.set_aspect("equal")
+    top.set_xlabel("x [m]")
+    top.set_ylabel("y [m]")
+    top.legend(fontsize=8)
+    side.set_xlabel("time [s]")
+    side.set_ylabel("height of the central module [m]")
+    side.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(folder / "fig7-5-trajectory.png", dpi=100)
+    plt.close(fig)
+
+
+def fig7_5(args, out: Path) -> Path:
+    """Figure 7.5: the fall off the table, lived by yamor-lifelong, then filmed; returns the folder."""
+    build = Path(args.build)
+    if not build.is_absolute():
+        build = REPO / build
+    tool = build / "optimizer-plugins" / "lifelong" / "yamor-lifelong"
+    if not tool.exists():
+        raise ToolError(f"{tool} does not exist (build the yamor-lifelong target, or pass --build)")
+    folder = out / "fig7-5"
+    if folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(parents=True)
+    extra = ["--max-anomalies", "1"]
+    if args.quick:
+        extra += ["--window-periods", "2", "--settle-periods", "0.5", "--trial-periods", "1.5",
+                  "--set", "max_evaluations=3"]
+    elif args.budget_set:
+        extra += ["--set", f"max_evaluations={args.budget}"]
+    workers = 2 if args.mode == "model" else 1
+    with (daemons.DaemonPool.existing(args.hosts) if args.hosts
+          else daemons.DaemonPool.start(daemons.binaries(args.build)["yamord"], 1, folder / "daemons",
+                                        workers=workers, quiet=args.quiet)) as pool:
+        life = folder / "life"
+        argv = [str(tool), "--host", pool.hosts[0], "--scenario", str(TABLE_SCENARIO), "--out", str(life),
+                "--mode", args.mode, "--seed", str(args.seed), *extra]
+        if args.quiet:
+            argv += ["--quiet", "--log-level", "warn"]
+        print("reproduce: " + " ".join(argv), flush=True)
+        log = folder / "yamor-lifelong.log"
+        env = dict(os.environ)
+        env.setdefault("YAMOR_PYTHON", sys.executable)
+        with open(log, "w") as f:
+            result = subprocess.run(argv, cwd=REPO, stdout=f, stderr=subprocess.STDOUT if args.quiet else None,
+                                    env=env)
+        if result.returncode != 0:
+            raise ToolError(f"yamor-lifelong exited with status {result.returncode}; see {log}")
+        gait_id, gait_xml = relearned_gait(life / "gaits.sqlite")
+        print(f"reproduce: filming the fall and gait {gait_id} on {pool.hosts[0]}", flush=True)
+        shots = film_recovery(pool.hosts[0], 1, gait_xml, folder, args.quick)
+    write_csv(folder / "fig7-5-frames.csv", ["file", "time", "label"],
+              [(s["file"], f"{s['time']:.3f}", s["label"]) for s in shots])
+    draw_fig7_5(folder, shots)
+    for name, dest in (("timeline.csv", "fig7-5-timeline.csv"), ("timeline.png", "fig7-5-timeline.png")):
+        if (life / name).exists():
+            shutil.copy(life / name, folder / dest)
+    return folder
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if args.figure == "fig7-5":
+        out = Path(args.out)
+        if not out.is_absolute():
+            out = Path.cwd() / out
+        started = time.monotonic()
+        folder = fig7_5(args, out)
+        print(f"reproduce: fig7-5 done in {time.monotonic() - started:.0f} s; results in {folder}", flush=True)
+        return 0
     if args.figure == "fig7-4":
         out = Path(args.out)
         if not out.is_absolute():

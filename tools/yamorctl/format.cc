@@ -134,4 +134,23 @@ std::string FormatStateUpdate(const v1::StateUpdate& u) {
   return text;
 }
 
+std::string FormatLifeStatus(const v1::LifeStatus& s) {
+  std::string text = fmt::format(
+      "{} at t={:.1f} s{}  velocity {:.2f} cm/s  ema {:.2f} cm/s  threshold {:.2f} cm/s  gait {}\n"
+      "anomalies {} (recalled {}, relearned {})  trials {}  daemon gaps {}\n",
+      s.state(), s.time(), s.ended() ? " (ended)" : "", s.velocity() * 100, s.ema() * 100,
+      s.threshold() * 100, s.gait(), s.anomalies(), s.recalls(), s.relearns(), s.trials(), s.gaps());
+  if (s.state() == "relearning") {
+    text += fmt::format("relearning ({}): trial {} of {}\n", s.mode(), s.relearn_trials(),
+                        s.relearn_budget());
+  }
+  if (!s.detail().empty()) text += "now: " + s.detail() + "\n";
+  if (!s.robot().empty()) text += "robot: " + s.robot() + "\n";
+  return text;
+}
+
+std::string FormatLifeUpdate(const v1::LifeUpdate& u) {
+  return fmt::format("t={:.1f} s  {:<22} [{}] {}\n", u.time(), u.kind(), u.status().state(), u.json());
+}
+
 }  // namespace yamor::yamorctl

@@ -7,6 +7,7 @@
 #include <google/protobuf/message.h>
 
 #include "yamor/v1/host.pb.h"
+#include "yamor/v1/lifelong.pb.h"
 
 namespace yamor::yamorctl {
 
@@ -39,5 +40,12 @@ std::string FormatEvaluation(const v1::EvaluateResponse& response);
 
 /// One WatchState update: time, position, velocity, then one line per event.
 std::string FormatStateUpdate(const v1::StateUpdate& update);
+
+/// A yamor-lifelong's status (`life`): state, velocities in cm/s, threshold,
+/// counts, relearning progress, gait.
+std::string FormatLifeStatus(const v1::LifeStatus& status);
+
+/// One event of a life (`life --watch`): time, kind, state and the event's JSON.
+std::string FormatLifeUpdate(const v1::LifeUpdate& update);
 
 }  // namespace yamor::yamorctl

@@ -20,6 +20,7 @@
 #include "tools/yamorctl/format.h"
 #include "tools/yamorctl/tracking.h"
 #include "yamor/v1/host.grpc.pb.h"
+#include "yamor/v1/lifelong.grpc.pb.h"
 
 namespace yamor::yamorctl {
 namespace {
@@ -80,8 +81,9 @@ class Session {
       : options_(options),
         out_(out),
         err_(err),
-        stub_(v1::Host::NewStub(grpc::CreateCustomChannel(
-            options.host, grpc::InsecureChannelCredentials(), ChannelArguments()))) {}
+        channel_(grpc::CreateCustomChannel(options.host, grpc::InsecureChannelCredentials(),
+                                           ChannelArguments())),
+        stub_(v1::Host::NewStub(channel_)) {}
 
   /// Frames (snapshot, record) can be large PNGs: beyond gRPC's default 4 MB.
   static grpc::ChannelArguments ChannelArguments() {
@@ -94,6 +96,8 @@ class Session {
   std::ostream& err() { return err_; }
   bool json() const { return options_.json; }
   v1::Host::Stub& stub() { return *stub_; }
+  /// The channel to --host (for services other than yamor.v1.Host).
+  const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
 
   /// Deadline of a call [s]: --timeout when given, else the default plus
   /// `work_seconds` (the time the call is expected to take).
@@ -158,6 +162,7 @@ class Session {
   GlobalOptions options_;
   std::ostream& out_;
   std::ostream& err_;
+  std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::Host::Stub> stub_;
 };
 
@@ -874,6 +879,46 @@ void AddWatch(CLI::App& app, Action& action, const GlobalOptions& global) {
   });
 }
 
+// ---- a living robot (yamor-lifelong --listen) ----------------------------------------
+
+void AddLife(CLI::App& app, Action& action, const GlobalOptions& global) {
+  struct Args {
+    bool watch = false;
+    bool replay = false;
+  };
+  auto a = std::make_shared<Args>();
+  CLI::App* c = app.add_subcommand(
+      "life", "A running yamor-lifelong's status (--host: its --listen address): state, velocity, "
+              "threshold, anomalies, relearning progress, gait; --watch streams its events");
+  c->add_flag("--watch", a->watch, "Stream the life's events until it ends (or Ctrl-C)");
+  c->add_flag("--replay", a->replay, "With --watch: the events so far first");
+  c->callback([&action, a, &global] {
+    action = [a, &global](Session& s) {
+      std::unique_ptr<v1::Lifelong::Stub> stub = v1::Lifelong::NewStub(s.channel());
+      if (!a->watch) {
+        grpc::ClientContext context;
+        Session::SetDeadline(context, s.Timeout());
+        v1::LifeStatus status;
+        if (const int code = s.Report(stub->GetLifeStatus(&context, Empty(), &status)); code != 0) {
+          return code;
+        }
+        s.Print(status, FormatLifeStatus);
+        return 0;
+      }
+      v1::WatchLifeRequest request;
+      request.set_replay(a->replay);
+      grpc::ClientContext context;
+      if (global.timeout_given) Session::SetDeadline(context, s.Timeout());
+      std::unique_ptr<grpc::ClientReader<v1::LifeUpdate>> reader = stub->WatchLife(&context, request);
+      for (v1::LifeUpdate update; reader->Read(&update);) {
+        s.Print(update, FormatLifeUpdate);
+        s.out().flush();
+      }
+      return s.Report(reader->Finish());
+    };
+  });
+}
+
 // ---- pictures and videos -------------------------------------------------------------
 
 /// Camera and size options shared by snapshot and record.
@@ -1185,6 +1230,7 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   AddSnapshot(app, action);
   AddRecord(app, action);
   AddTracking(app, action, global);
+  AddLife(app, action, global);
   app.footer(kFooter);  // after the commands, which would inherit it
 
   try {

@@ -422,6 +422,37 @@ TEST_F(LifeCycleTest, TurnedOverTheAccelerometerTriggersAndTheGaitIsStoredUpside
   EXPECT_LT(gaits[1].symptoms.acceleration[2], 0);
 }
 
+// 7.5.2 off a table: the robot stalls at the edge (an anomaly while still
+// upright) and falls over while it relearns. The gait that comes out is
+// stored and watched as an upside-down gait, not as the upright one.
+TEST_F(LifeCycleTest, TurnedOverWhileRelearningTheGaitIsStoredWithTheNewOrientation) {
+  robot_.schedule.emplace(90, [](FakeRobot& r) { r.LimpMotor(1); });
+  robot_.schedule.emplace(110, [](FakeRobot& r) { r.world.upside_down = true; });
+  const LifeSummary s = Live(300);
+  ASSERT_GE(relearner_.requests.size(), 1u);
+  EXPECT_FALSE(relearner_.requests[0].condition.upside_down) << "assessed upright";
+  const auto changed = log_.Of("orientation_changed");
+  ASSERT_EQ(changed.size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*changed[0], "to"), JsonString("upside_down"));
+  EXPECT_TRUE(log_.Of("orientation_not_watched").empty());
+  const auto gaits = db_->All();
+  ASSERT_GE(gaits.size(), 2u);
+  EXPECT_EQ(gaits[1].orientation, Orientation::kUpsideDown);
+  // Walking on its back is this gait's normal orientation: no second anomaly for it.
+  EXPECT_EQ(Anomalies("orientation"), 0);
+  EXPECT_EQ(s.status.anomalies, 1);
+}
+
+// Without a flip the relearned gait keeps the assessed orientation.
+TEST_F(LifeCycleTest, AnUprightRelearningLogsNoOrientationChange) {
+  robot_.schedule.emplace(90, [](FakeRobot& r) { r.LimpMotor(1); });
+  Live(300);
+  EXPECT_TRUE(log_.Of("orientation_changed").empty());
+  const auto gaits = db_->All();
+  ASSERT_GE(gaits.size(), 2u);
+  EXPECT_EQ(gaits[1].orientation, Orientation::kUpright);
+}
+
 TEST_F(LifeCycleTest, AFlipThatDoesNotSlowTheRobotIsAnAnomalyAfterTwoWindows) {
   robot_.schedule.emplace(91, [](FakeRobot& r) { r.tilted = true; });
   Live(200);

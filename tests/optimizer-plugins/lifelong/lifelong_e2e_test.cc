@@ -17,8 +17,13 @@
 #include <thread>
 #include <vector>
 
+#include <grpcpp/grpcpp.h>
+
+#include <mutex>
+
 #include "optimizer-plugins/lifelong/gait_database.h"
 #include "tests/support/yamord_process.h"
+#include "yamor/v1/lifelong.grpc.pb.h"
 
 namespace yamor::lifelong {
 namespace {
@@ -177,6 +182,44 @@ do = "upside_down"
   EXPECT_EQ(gaits[0].orientation, Orientation::kUpright);
   EXPECT_EQ(gaits[1].orientation, Orientation::kUpsideDown);
   EXPECT_EQ(gaits[1].morphology_key, gaits[0].morphology_key);
+}
+
+// Thesis 7.5.2 as it was run: configs/lifelong/table.toml's world, the
+// extended quadruped on a table (a static box), nothing scheduled. It walks
+// to the edge, stalls with its legs over it (a velocity drop) or is already
+// over it (its accelerometers see it on its back), relearns the same
+// parameters, and the gait that comes out is an upside-down gait.
+TEST_F(LifelongE2eTest, OffTheTableTheRobotLandsUpsideDownAndRelearns) {
+  const std::string scenario = Scenario("table", R"(world = ")" + kSource +
+                                                     R"(/configs/lifelong/quadruped-extended-table.xml"
+)");
+  const fs::path out = dir_ / "out";
+  std::string text;
+  ASSERT_EQ(Run(Args(scenario, out, {"--max-anomalies", "1", "--max-time", "200"}), &text), 0) << text;
+  const std::string events = Read(out / "events.jsonl");
+  EXPECT_TRUE(Events(out, "scenario_change").empty());
+  const auto anomalies = Events(out, "anomaly");
+  ASSERT_EQ(anomalies.size(), 1u) << events;
+  const std::string trigger = Field(anomalies[0], "trigger");
+  EXPECT_TRUE(trigger == "velocity_drop" || trigger == "orientation") << anomalies[0];
+  EXPECT_GT(std::stod(Field(anomalies[0], "time")), 20.0) << "it walked on the table first";
+  ASSERT_EQ(Events(out, "assessed").size(), 1u);
+  EXPECT_EQ(Field(Events(out, "assessed")[0], "body_changed"), "false");
+  EXPECT_EQ(Field(Events(out, "relearn")[0], "how"), "same parameters");
+  ASSERT_EQ(Events(out, "relearned").size(), 1u) << events;
+  // Seen on its back at the anomaly, or turned over while relearning.
+  if (trigger != "orientation") {
+    ASSERT_EQ(Events(out, "orientation_changed").size(), 1u) << events;
+    EXPECT_EQ(Field(Events(out, "orientation_changed")[0], "to"), "upside_down");
+  }
+  EXPECT_TRUE(Events(out, "orientation_not_watched").empty()) << events;
+  GaitDatabase db((out / "gaits.sqlite").string(), false);
+  const auto gaits = db.All();
+  ASSERT_EQ(gaits.size(), 2u);
+  EXPECT_EQ(gaits[0].orientation, Orientation::kUpright);
+  EXPECT_EQ(gaits[1].orientation, Orientation::kUpsideDown);
+  EXPECT_EQ(gaits[1].morphology_key, gaits[0].morphology_key);
+  EXPECT_NE(Read(out / "timeline.csv").find(",walking,"), std::string::npos);
 }
 
 TEST_F(LifelongE2eTest, ALimpMotorIsAnEventAndKeepsTheNetwork) {
@@ -355,6 +398,113 @@ TEST_F(LifelongE2eTest, SigtermEndsTheLifeCleanly) {
   EXPECT_EQ(Field(Events(out, "end")[0], "reason"), "stopped");
   GaitDatabase db((out / "gaits.sqlite").string(), false);
   EXPECT_EQ(db.All().size(), 1u);
+}
+
+// Issue 13 §2: `--listen` serves the yamor.v1.Lifelong status service: the
+// status (state, velocity, threshold, anomalies, relearning progress, gait)
+// and the event stream, the same events as events.jsonl.
+TEST_F(LifelongE2eTest, ListenServesTheStatusAndTheEventStream) {
+  const std::string scenario = Scenario("listen", R"(world = "quadruped"
+[[change]]
+at = 12
+do = "motor_defect"
+module = 5
+defect = "limp"
+)");
+  const fs::path out = dir_ / "out";
+  YamordProcess life(kLifelong, Args(scenario, out, {"--max-anomalies", "1", "--listen", "127.0.0.1:0"}));
+  const std::string prefix = "yamor-lifelong: status on 127.0.0.1:";
+  int port = 0;
+  for (int i = 0; i < 20 && port == 0; ++i) {
+    bool ended = false;
+    const std::string line = life.ReadLine(seconds(30), &ended);
+    if (line.rfind(prefix, 0) == 0) port = std::stoi(line.substr(prefix.size()));
+    if (ended) break;
+  }
+  ASSERT_GT(port, 0) << "no status line";
+  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials());
+  auto stub = v1::Lifelong::NewStub(channel);
+
+  // The stream from the start (replay), collected while the life goes on.
+  std::vector<v1::LifeUpdate> updates;
+  grpc::Status stream_status;
+  grpc::ClientContext stream_context;
+  stream_context.set_deadline(std::chrono::system_clock::now() + seconds(60));
+  std::thread watcher([&] {
+    v1::WatchLifeRequest request;
+    request.set_replay(true);
+    auto reader = stub->WatchLife(&stream_context, request);
+    for (v1::LifeUpdate update; reader->Read(&update);) updates.push_back(update);
+    stream_status = reader->Finish();
+  });
+
+  // Polled status: walking with a measured velocity and a threshold.
+  bool walking_seen = false;
+  for (int i = 0; i < 300 && !walking_seen; ++i) {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + seconds(5));
+    v1::LifeStatus status;
+    const grpc::Status s = stub->GetLifeStatus(&context, google::protobuf::Empty(), &status);
+    if (!s.ok()) break;  // the life ended already
+    EXPECT_EQ(status.mode(), "online");
+    EXPECT_EQ(status.robot(), "127.0.0.1:" + std::to_string(port_));
+    EXPECT_EQ(status.relearn_budget(), 3u);
+    if (status.state() == "walking" && status.velocity() > 0 && status.threshold() > 0) {
+      walking_seen = true;
+      EXPECT_GT(status.gait(), 0);
+      EXPECT_GT(status.time(), 0);
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(walking_seen);
+
+  const std::string text = life.ReadAll(seconds(60));
+  EXPECT_EQ(life.WaitForExit(seconds(10)), 0) << text;
+  watcher.join();
+  EXPECT_TRUE(stream_status.ok()) << stream_status.error_message();
+
+  // The stream is events.jsonl, line for line, in order.
+  std::vector<std::string> lines;
+  std::istringstream in(Read(out / "events.jsonl"));
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  ASSERT_EQ(updates.size(), lines.size());
+  for (std::size_t i = 0; i < updates.size(); ++i) {
+    EXPECT_EQ(updates[i].index(), i);
+    EXPECT_EQ(updates[i].json(), lines[i]);
+    EXPECT_EQ(updates[i].kind(), Field(lines[i], "kind"));
+  }
+  ASSERT_GE(updates.size(), 4u);
+  EXPECT_EQ(updates.front().kind(), "start");
+  EXPECT_EQ(updates.back().kind(), "end");
+  bool anomaly = false, relearned = false;
+  for (const v1::LifeUpdate& u : updates) {
+    if (u.kind() == "anomaly") {
+      anomaly = true;
+      EXPECT_EQ(u.status().state(), "anomaly");
+      EXPECT_EQ(u.status().anomalies(), 1u);
+    }
+    if (u.kind() == "relearned") {
+      relearned = true;
+      EXPECT_EQ(u.status().state(), "relearning");
+      EXPECT_EQ(u.status().relearn_trials(), 3u);  // the relearning's progress: 3 of 3
+      EXPECT_EQ(u.status().relearn_budget(), 3u);
+    }
+  }
+  EXPECT_TRUE(anomaly);
+  EXPECT_TRUE(relearned);
+  // The service is gone with the life.
+  grpc::ClientContext after;
+  after.set_deadline(std::chrono::system_clock::now() + seconds(2));
+  v1::LifeStatus gone;
+  EXPECT_FALSE(stub->GetLifeStatus(&after, google::protobuf::Empty(), &gone).ok());
+}
+
+TEST_F(LifelongE2eTest, ListenOnABadAddressIsAClearError) {
+  const std::string scenario = Scenario("badlisten", "world = \"quadruped\"\n");
+  std::string text;
+  for (const std::string bad : {"no-port-here", "127.0.0.1:99999", "127.0.0.1:", ":80", "127.0.0.1:http"}) {
+    EXPECT_EQ(Run(Args(scenario, (dir_ / "out").string(), {"--listen", bad}), &text), 2) << bad << ": " << text;
+  }
 }
 
 TEST_F(LifelongE2eTest, ADamagedDatabaseOrAMissingGaitIsAClearError) {
