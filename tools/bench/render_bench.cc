@@ -5,7 +5,8 @@
 // against the 20-s evaluation it shows. A plain program printing a table
 // (tools/bench/run.sh's plain_programs).
 //
-//   render_bench [--frames N] [--runs N] [--video-only] [--png DIR] [--backend osmesa|egl]
+//   render_bench [--frames N] [--runs N] [--video-only] [--breakdown] [--png DIR]
+//                [--backend osmesa|egl]
 //
 // --png DIR also writes a sample frame of each robot and camera there.
 // CPU times are the whole process's (llvmpipe rasterises on its own
@@ -188,6 +189,8 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "Frames per measurement");
   app.add_option("--runs", runs, "Runs of the 20-s video measurement (medians)")->check(CLI::PositiveNumber);
   app.add_flag("--video-only", video_only, "Only the 20-s video measurement");
+  bool breakdown = false;
+  app.add_flag("--breakdown", breakdown, "Also the CPU per frame with each part switched off");
   app.add_option("--png", png_dir, "Also write sample frames into this directory");
   app.add_option("--backend", backend_name, "auto, osmesa or egl")
       ->check(CLI::IsMember({"auto", "osmesa", "egl"}));
@@ -224,6 +227,36 @@ int main(int argc, char** argv) {
       std::printf("%-10s %-8s %11.1f %15.1f %14.2f %18.2f %8.1f\n", c.name,
                   fmt::format("{}x{}", w, h).c_str(), r.render_fps, r.png_fps, r.render_cpu_ms,
                   r.png_cpu_ms, r.png_kib);
+    }
+  }
+
+  if (breakdown) {
+    // What each part of a frame costs: the quadruped at 320x240 with one
+    // part switched off at a time (CPU ms per frame, median of 5 batches).
+    struct Part {
+      const char* name;
+      yamor::render::RenderOptions options;
+    };
+    const std::vector<Part> parts = {
+        {"everything", {}},
+        {"no grid", {.grid = false}},
+        {"no edges", {.edges = false}},
+        {"no shadows", {.shadows = false}},
+        {"no lighting", {.lighting = false}},
+        {"no labels, no legend", {.labels = false, .legend = false}},
+        {"none of these",
+         {.lighting = false, .edges = false, .grid = false, .shadows = false, .labels = false,
+          .legend = false}},
+    };
+    std::printf("\nquadruped 320x240, CPU ms per frame:\n");
+    for (const Part& part : parts) {
+      std::vector<double> batches;
+      for (int b = 0; b < 5; ++b) {
+        const double cpu = ProcessCpuSeconds();
+        for (int i = 0; i < frames; ++i) renderer.Render(cases[0].scene, follow, 320, 240, part.options);
+        batches.push_back((ProcessCpuSeconds() - cpu) * 1e3 / frames);
+      }
+      std::printf("  %-22s %6.2f\n", part.name, Median(batches));
     }
   }
 
