@@ -165,7 +165,7 @@ std::pair<int, int> ParseVideoSize(const std::string& text) {
   const int width = std::stoi(text.substr(0, x));
   const int height = std::stoi(text.substr(x + 1));
   if (width < 1 || width > 4096 || height < 1 || height > 4096) {
-    throw Error(StatusCode::kOutOfRange,
+    throw Error(StatusCode::kInvalidArgument,
                 "--video-size " + text + ": width and height must be 1..4096");
   }
   return {width, height};
@@ -303,7 +303,7 @@ int main(int argc, char** argv) {
     if (out_dir.empty()) throw Error(StatusCode::kInvalidArgument, "--out is required");
     const auto [video_width, video_height] = ParseVideoSize(video_size);
     if (!(video_fps > 0 && video_fps <= 240)) {
-      throw Error(StatusCode::kOutOfRange,
+      throw Error(StatusCode::kInvalidArgument,
                   "--video-fps " + FormatDouble(video_fps) + " is outside (0, 240]");
     }
     if (!(warmup >= 0 && duration > 0)) {
