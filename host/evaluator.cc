@@ -12,6 +12,8 @@
 #include "cpg/parameters.h"
 #include "host/sim_factory.h"
 #include "host/snp_link.h"
+#include "physics/render/renderer.h"
+#include "physics/render/snapshot.h"
 
 namespace yamor::host {
 
@@ -87,6 +89,12 @@ class EvaluationRobot {
     link_.BridgeRequest(snp::TurnUpsideDown{}, snp::MessageType::kSpecialAck);
   }
 
+  // The world as it is now, with real module ids (ReadScene special).
+  render::Scene Scene() {
+    const snp::SceneSnapshot snapshot = link_.ReadScene();
+    return render::FromSnapshot(snapshot, [this](int wire) { return link_.Real(wire); });
+  }
+
   RobotPose Position() {
     const snp::Message m =
         link_.BridgeRequest(snp::GetRobotPosition{}, snp::MessageType::kRobotPosition);
@@ -100,7 +108,23 @@ class EvaluationRobot {
   SnpLink link_;
 };
 
+// Checks a film before any world exists: frame size, camera, rate, count.
+void CheckFilm(const EvaluationFilm& film, double seconds) {
+  ValidateFrameSpec(film.frame);
+  ValidateFrameRate(film.frame_rate);
+  if (seconds * film.frame_rate > kMaxRecordFrames) {
+    throw Error(StatusCode::kOutOfRange,
+                FormatRounded(seconds) + " s at " + FormatRounded(film.frame_rate) +
+                    " frames per second is " + FormatRounded(seconds * film.frame_rate) +
+                    " frames, more than " + FormatRounded(kMaxRecordFrames));
+  }
+}
+
 }  // namespace
+
+uint32_t EvaluationFrameCount(double seconds, double frame_rate) {
+  return static_cast<uint32_t>(std::max(1.0, std::round(seconds * frame_rate)));
+}
 
 EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& cancel) {
   const auto wall_start = std::chrono::steady_clock::now();
@@ -178,6 +202,15 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     }
   }
   CheckGroundValues(spec.ground);
+  // The film: checked, and this thread's renderer made (UNAVAILABLE on a
+  // machine without one), before the world is built.
+  render::Renderer* renderer = nullptr;
+  uint32_t frame_count = 0;
+  if (spec.film) {
+    CheckFilm(*spec.film, spec.warmup + spec.duration);
+    renderer = &render::ThreadRenderer();
+    frame_count = EvaluationFrameCount(spec.warmup + spec.duration, spec.film->frame_rate);
+  }
 
   const SimulationOptions options{.time_step = time_step,
                                   .seed = spec.seed,
@@ -197,10 +230,37 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
 
   EvaluationResult result;
   const int64_t chunk = std::max<int64_t>(1, steps_of(kChunk));
+  // Frame i is taken at step round(i / frame_rate / time_step): absolute
+  // times, so a period that is no whole number of steps does not drift.
+  std::size_t frame_bytes = 0;
+  const auto frame_step = [&](uint32_t i) -> int64_t {
+    return steps_of(static_cast<double>(i) / spec.film->frame_rate);
+  };
+  const auto take_frame = [&] {
+    EncodedFrame frame = EncodeFrame(robot.Scene(), spec.film->frame, *renderer, /*fast=*/true);
+    frame.index = static_cast<uint32_t>(result.frames.size());
+    frame_bytes += frame.png.size();
+    if (frame_bytes > kMaxEvaluationFrameBytes) {
+      throw Error(StatusCode::kOutOfRange,
+                  "the frames of this evaluation pass " +
+                      std::to_string(kMaxEvaluationFrameBytes >> 20) + " MiB at frame " +
+                      std::to_string(frame.index) + " of " + std::to_string(frame_count) +
+                      "; ask for smaller frames or a lower frame rate");
+    }
+    result.frames.push_back(std::move(frame));
+  };
+  // Frames due at the current step (several when the rate is above 1/step).
+  int64_t step = 0;
+  const auto take_due_frames = [&] {
+    while (result.frames.size() < frame_count &&
+           frame_step(static_cast<uint32_t>(result.frames.size())) <= step) {
+      take_frame();
+    }
+  };
+  if (spec.film) take_due_frames();
   RobotPose start_pose = robot.Position();
   result.final_pose = start_pose;
   if (sample_every > 0) result.trajectory.push_back({start_pose.time, start_pose.position});
-  int64_t step = 0;
   while (step < end_steps) {
     if (cancel && cancel()) {
       throw Error(StatusCode::kCancelled,
@@ -209,6 +269,9 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     int64_t next = std::min(end_steps, step + chunk);
     if (step < warm_steps) next = std::min(next, warm_steps);
     if (sample_every > 0) next = std::min(next, (step / sample_every + 1) * sample_every);
+    if (spec.film && result.frames.size() < frame_count) {
+      next = std::min(next, frame_step(static_cast<uint32_t>(result.frames.size())));
+    }
     std::string divergence;
     if (!robot.Step(next - step, time_step, divergence)) {
       result.diverged = true;
@@ -219,6 +282,7 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
       break;
     }
     step = next;
+    if (spec.film) take_due_frames();
     const bool at_warmup = step == warm_steps;
     const bool at_sample = sample_every > 0 && step % sample_every == 0;
     if (at_warmup || at_sample || step == end_steps) {

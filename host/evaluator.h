@@ -12,6 +12,7 @@
 #include <functional>
 #include <future>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <utility>
@@ -19,6 +20,7 @@
 
 #include "cpg/robot_config.h"
 #include "host/driver.h"
+#include "host/frames.h"
 #include "host/id_map.h"
 #include "physics/morphology.h"
 
@@ -28,6 +30,21 @@ namespace yamor::host {
 inline constexpr double kDefaultWarmup = 8.0;
 /// Default measured span [s].
 inline constexpr double kDefaultDuration = 12.0;
+
+/// How an evaluation is filmed (EvaluateRequest.frames): frames at
+/// t = 0, 1/frame_rate, ... over the whole evaluation, warm-up included.
+/// Thread-safety: plain value.
+struct EvaluationFilm {
+  FrameSpec frame;          ///< How each frame is drawn (size, camera, options).
+  double frame_rate = 25;   ///< Frames per simulated second, (0, kMaxFrameRate].
+};
+
+/// Most PNG bytes the frames of one evaluation may hold (512 MiB).
+inline constexpr std::size_t kMaxEvaluationFrameBytes = std::size_t{512} << 20;
+
+/// Frames of a filmed evaluation of `seconds` (warm-up + duration):
+/// max(1, round(seconds * frame_rate)).
+uint32_t EvaluationFrameCount(double seconds, double frame_rate);
 
 /// One evaluation's inputs.
 struct EvaluationSpec {
@@ -50,6 +67,9 @@ struct EvaluationSpec {
   std::vector<std::pair<int, bool>> module_defects;
   GroundChange ground;       ///< Ground friction and slope; absent: the world's.
   bool upside_down = false;  ///< Turned upside down at t = 0 (TurnUpsideDown).
+  /// Set: frames of the evaluation, rendered on the evaluating thread from
+  /// its own world (render::ThreadRenderer: one GL context per thread).
+  std::optional<EvaluationFilm> film;
 };
 
 /// A trajectory sample.
@@ -67,6 +87,9 @@ struct EvaluationResult {
   bool diverged = false;    ///< The world diverged.
   std::string divergence;   ///< Why, when diverged.
   double wall_seconds = 0.0;  ///< Wall-clock time taken.
+  /// With EvaluationSpec::film: the frames in order (index 0, 1, ...); a
+  /// diverged world ends them early.
+  std::vector<EncodedFrame> frames;
 };
 
 /// Runs one evaluation on the calling thread. Deterministic: the same spec
@@ -75,8 +98,12 @@ struct EvaluationResult {
 /// missing from the world, OUT_OF_RANGE for bad timings; for the condition
 /// fields NOT_FOUND naming a motor-defect module not in the configuration or
 /// a module-defect module not in the world, INVALID_ARGUMENT for a module
-/// listed twice, CheckGroundValues' errors (all checked before the world is
-/// built); CANCELLED when
+/// listed twice, CheckGroundValues' errors, for the film
+/// ValidateFrameSpec's and ValidateFrameRate's errors and OUT_OF_RANGE for
+/// more than kMaxRecordFrames frames (all checked before the world is
+/// built); UNAVAILABLE when a film is asked for on a machine without a
+/// renderer; OUT_OF_RANGE when the frames pass kMaxEvaluationFrameBytes;
+/// CANCELLED when
 /// `cancel` fires (checked between 0.1 s chunks of simulated time).
 /// Thread-safe: evaluations share nothing.
 EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& cancel);

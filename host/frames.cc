@@ -16,14 +16,14 @@ namespace {
 // The calling thread's renderer; UNAVAILABLE when the machine has none.
 render::Renderer& ThisThreadRenderer() { return render::ThreadRenderer(); }
 
-EncodedFrame Encode(const render::Scene& scene, const FrameSpec& spec, render::Renderer& renderer,
-                    bool fast) {
+}  // namespace
+
+EncodedFrame EncodeFrame(const render::Scene& scene, const FrameSpec& spec,
+                         render::Renderer& renderer, bool fast) {
   const render::Image image =
       renderer.Render(scene, spec.camera, spec.width, spec.height, spec.options);
   return EncodedFrame{.time = scene.time, .png = render::EncodePng(image, fast)};
 }
-
-}  // namespace
 
 void ValidateFrameSpec(const FrameSpec& spec) {
   render::ValidateFrameSize(spec.width, spec.height);
@@ -34,23 +34,27 @@ EncodedFrame RenderFrame(RobotDriver& driver, const FrameSpec& spec) {
   ValidateFrameSpec(spec);
   render::Renderer& renderer = ThisThreadRenderer();  // before touching the robot
   const render::Scene scene = driver.GetScene();
-  return Encode(scene, spec, renderer, /*fast=*/false);
+  return EncodeFrame(scene, spec, renderer, /*fast=*/false);
 }
 
 uint32_t RecordFrameCount(const RecordSpec& spec) {
   return static_cast<uint32_t>(std::max(1.0, std::round(spec.seconds * spec.frame_rate)));
 }
 
+void ValidateFrameRate(double frame_rate) {
+  if (!std::isfinite(frame_rate)) {
+    throw Error(StatusCode::kInvalidArgument,
+                fmt::format("frame rate is not finite: {}", frame_rate));
+  }
+  if (!(frame_rate > 0.0 && frame_rate <= kMaxFrameRate)) {
+    throw Error(StatusCode::kOutOfRange, fmt::format("frame rate {} per second is outside (0, {}]",
+                                                     frame_rate, kMaxFrameRate));
+  }
+}
+
 void ValidateRecordSpec(const RecordSpec& spec) {
   ValidateFrameSpec(spec.frame);
-  if (!std::isfinite(spec.frame_rate)) {
-    throw Error(StatusCode::kInvalidArgument,
-                fmt::format("frame rate is not finite: {}", spec.frame_rate));
-  }
-  if (!(spec.frame_rate > 0.0 && spec.frame_rate <= kMaxFrameRate)) {
-    throw Error(StatusCode::kOutOfRange, fmt::format("frame rate {} per second is outside (0, {}]",
-                                                     spec.frame_rate, kMaxFrameRate));
-  }
+  ValidateFrameRate(spec.frame_rate);
   if (!std::isfinite(spec.seconds)) {
     throw Error(StatusCode::kInvalidArgument,
                 fmt::format("recording duration is not finite: {}", spec.seconds));
@@ -78,7 +82,7 @@ void RecordFrames(RobotDriver& driver, const RecordSpec& spec,
     const double start = scene.time;
     for (uint32_t i = 0; i < count; ++i) {
       if (i > 0) scene = driver.GetScene();
-      EncodedFrame frame = Encode(scene, spec.frame, renderer, /*fast=*/true);
+      EncodedFrame frame = EncodeFrame(scene, spec.frame, renderer, /*fast=*/true);
       frame.index = i;
       if (!sink(std::move(frame))) return;
       // Absolute frame times: no drift when the period is not a whole number of steps.
@@ -99,7 +103,7 @@ void RecordFrames(RobotDriver& driver, const RecordSpec& spec,
   double next = scene.time;
   for (uint32_t i = 0; i < count;) {
     if (scene.time + 1e-9 >= next) {
-      EncodedFrame frame = Encode(scene, spec.frame, renderer, /*fast=*/true);
+      EncodedFrame frame = EncodeFrame(scene, spec.frame, renderer, /*fast=*/true);
       frame.index = i++;
       if (!sink(std::move(frame))) return;
       next += period;

@@ -40,6 +40,11 @@ void ValidateFrameSpec(const FrameSpec& spec);
 /// UNIMPLEMENTED on a real robot). Never changes the robot.
 EncodedFrame RenderFrame(RobotDriver& driver, const FrameSpec& spec);
 
+/// One frame of `scene` drawn by `renderer` (PNG; `fast` trades size for
+/// speed, as video frames want). Errors: the renderer's and EncodePng's.
+EncodedFrame EncodeFrame(const render::Scene& scene, const FrameSpec& spec,
+                         render::Renderer& renderer, bool fast);
+
 /// A recording: frames every 1/frame_rate simulated seconds.
 struct RecordSpec {
   FrameSpec frame;          ///< How each frame is drawn.
@@ -62,6 +67,10 @@ inline constexpr double kMaxRecordFrames = 100000.0;
 
 /// Frames in a recording: max(1, round(seconds * frame_rate)).
 uint32_t RecordFrameCount(const RecordSpec& spec);
+
+/// Throws yamor::Error naming the value: INVALID_ARGUMENT for a frame rate
+/// that is NaN or infinite, OUT_OF_RANGE outside (0, kMaxFrameRate].
+void ValidateFrameRate(double frame_rate);
 
 /// Throws yamor::Error naming the value: ValidateFrameSpec's, OUT_OF_RANGE
 /// for a frame rate or duration outside its range (0 included) or too many

@@ -669,12 +669,18 @@ grpc::Status HostServiceImpl::Evaluate(grpc::ServerContext* context,
     }
     if (request->has_ground()) spec.ground = ToGroundChange(request->ground());
     spec.upside_down = request->upside_down();
+    if (request->has_frames()) {
+      const v1::EvaluationFrames& f = request->frames();
+      spec.film = EvaluationFilm{
+          .frame = ToFrameSpec(f.camera(), f.width(), f.height(), f.hide_labels(), f.hide_legend()),
+          .frame_rate = f.frame_rate()};
+    }
     const CancelCheck cancel = [this, context] {
       return context->IsCancelled() || stopping_.load() || pool_.stopping();
     };
     std::future<EvaluationResult> future =
         pool_.Submit([spec = std::move(spec), cancel] { return RunEvaluation(spec, cancel); });
-    const EvaluationResult r = future.get();
+    EvaluationResult r = future.get();
     response->set_velocity(r.velocity);
     response->set_distance(r.distance);
     SetPose(r.final_pose, response->mutable_final_pose());
@@ -688,6 +694,13 @@ grpc::Status HostServiceImpl::Evaluate(grpc::ServerContext* context,
     response->set_diverged(r.diverged);
     response->set_divergence(r.divergence);
     response->set_wall_seconds(r.wall_seconds);
+    for (EncodedFrame& frame : r.frames) {
+      v1::VideoFrame* out = response->add_frames();
+      out->set_index(frame.index);
+      out->set_time(frame.time);
+      out->set_png(frame.png.data(), frame.png.size());
+      std::vector<uint8_t>().swap(frame.png);  // one copy of the bytes at a time
+    }
   });
 }
 

@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -19,6 +20,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -34,6 +36,7 @@
 #include "optimizer-plugins/framework/resume.h"
 #include "optimizer-plugins/framework/run_setup.h"
 #include "optimizer-plugins/framework/session.h"
+#include "optimizer-plugins/film/best_video.h"
 
 namespace fs = std::filesystem;
 using namespace yamor;
@@ -149,6 +152,72 @@ std::string CommandLine(int argc, char** argv) {
   return line;
 }
 
+// Parses --video-size "WxH".
+std::pair<int, int> ParseVideoSize(const std::string& text) {
+  const auto x = text.find('x');
+  const auto digits = [](const std::string& s) {
+    return !s.empty() && s.size() <= 5 && s.find_first_not_of("0123456789") == std::string::npos;
+  };
+  if (x == std::string::npos || !digits(text.substr(0, x)) || !digits(text.substr(x + 1))) {
+    throw Error(StatusCode::kInvalidArgument,
+                "--video-size " + text + ": expected WIDTHxHEIGHT, e.g. 320x240");
+  }
+  const int width = std::stoi(text.substr(0, x));
+  const int height = std::stoi(text.substr(x + 1));
+  if (width < 1 || width > 4096 || height < 1 || height > 4096) {
+    throw Error(StatusCode::kInvalidArgument,
+                "--video-size " + text + ": width and height must be 1..4096");
+  }
+  return {width, height};
+}
+
+// The video of the best gait (best.mp4, best-strip.png) in `dir`: the best
+// candidate filmed by a host of the pool. A failure is a warning: the run
+// and its results stay as they are. Returns the lines to print.
+std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig& config,
+                                       const Problem& problem, const SessionResult& result,
+                                       const FilmOptions& options, const fs::path& dir,
+                                       const std::function<bool()>& cancelled) {
+  std::vector<std::string> lines;
+  try {
+    const Candidate candidate = problem.to_candidate(result.best_point);
+    double period = 0.0;
+    try {
+      period = GaitPeriod(config.Apply(result.best_point));
+    } catch (const Error&) {
+      // The strip then spans the evaluation.
+    }
+    const FilmResult film = pool.FilmCandidate(candidate, options, cancelled);
+    if (film.evaluation.velocity != result.best_velocity) {
+      Log().warn("the filmed best gait ran at {} m/s on {}, the recorded best at {} m/s (hosts of "
+                 "another build?)",
+                 film.evaluation.velocity, film.evaluation.host, result.best_velocity);
+    }
+    if (film.frames.empty()) throw Error(StatusCode::kInternal, film.evaluation.host + " sent no frames");
+    const BestVideo video = WriteBestVideo(film.frames, options.frame_rate, period, dir.string());
+    if (!video.video_error.empty()) {
+      std::cerr << "yamor-optimize: warning: no video of the best gait: " << video.video_error << "\n";
+    } else if (video.video) {
+      lines.push_back("  video:     " + video.video_path + " (" + std::to_string(video.frames) +
+                      " frames, " + FormatDouble(options.frame_rate) + " fps, filmed on " +
+                      film.evaluation.host + ")");
+    } else {
+      lines.push_back("  video:     " + std::to_string(video.frames) + " frames as " +
+                      (dir / "best-%06d.png").string());
+      lines.push_back("  note:      " + video.note);
+    }
+    if (!video.strip_error.empty()) {
+      std::cerr << "yamor-optimize: warning: no best-strip.png: " << video.strip_error << "\n";
+    } else {
+      lines.push_back("  strip:     " + video.strip_path);
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "yamor-optimize: warning: no video of the best gait (the results are kept): "
+              << e.what() << "\n";
+  }
+  return lines;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -165,7 +234,9 @@ int main(int argc, char** argv) {
   double warmup = 8.0, duration = 12.0, time_step = 0.0, give_up_after = 120.0;
   std::string live_spec;
   LiveOptions live_options;
-  bool list_plugins = false, no_plot = false, quiet = false;
+  bool list_plugins = false, no_plot = false, quiet = false, no_video = false;
+  std::string video_size = "320x240";
+  double video_fps = 25.0;
   app.add_flag("--list-plugins", list_plugins, "List the plugins found and their fields, then exit");
   app.add_option("--plugin", plugin_name, "Plugin name (NAME.so in the plugin folders) or path to a .so");
   app.add_option("--plugin-dir", plugin_dirs, "Extra folder to look for plugins in (before the defaults)");
@@ -199,6 +270,13 @@ int main(int argc, char** argv) {
                  "Continue the killed run recorded in this results folder (same arguments; "
                  "recorded evaluations are not run again)");
   app.add_flag("--no-plot", no_plot, "Do not draw progress.png");
+  app.add_flag("--no-video", no_video,
+               "Do not film the best gait (best.mp4 and best-strip.png, made by a host of the pool "
+               "at the end of the run)");
+  app.add_option("--video-size", video_size, "Size of the best gait's video frames WIDTHxHEIGHT")
+      ->capture_default_str();
+  app.add_option("--video-fps", video_fps, "Frames per simulated second of the best gait's video")
+      ->capture_default_str();
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -223,6 +301,11 @@ int main(int argc, char** argv) {
       out_dir = resume_dir;
     }
     if (out_dir.empty()) throw Error(StatusCode::kInvalidArgument, "--out is required");
+    const auto [video_width, video_height] = ParseVideoSize(video_size);
+    if (!(video_fps > 0 && video_fps <= 240)) {
+      throw Error(StatusCode::kInvalidArgument,
+                  "--video-fps " + FormatDouble(video_fps) + " is outside (0, 240]");
+    }
     if (!(warmup >= 0 && duration > 0)) {
       throw Error(StatusCode::kInvalidArgument, "--warmup must be >= 0 and --duration > 0");
     }
@@ -386,12 +469,32 @@ int main(int argc, char** argv) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
         live_evaluator.get()) << "\n";
 
+    // The video of each instance's best gait: after the run, so that a
+    // failed video never touches the results; a signal from here on skips it.
+    const int signals_before_video = g_signals.load();
+    const auto video_cancelled = [signals_before_video] {
+      return g_signals.load() > signals_before_video;
+    };
+    FilmOptions film_options;
+    film_options.width = video_width;
+    film_options.height = video_height;
+    film_options.frame_rate = video_fps;
+    if (!no_video && live) {
+      std::cerr << "yamor-optimize: no video with --live (film the robot with yamorctl record)\n";
+    }
+
     int exit_code = 0;
     for (std::size_t i = 0; i < sessions.size(); ++i) {
       const SessionResult& r = results[i];
       if (!no_plot && r.evaluations > 0) {
         DrawProgress(instance_dirs[i], plugin.name() + " on " + fs::path(config_path).filename().string() +
                                            (batch_path.empty() ? "" : " (" + instances[i].name + ")"));
+      }
+      std::vector<std::string> video_lines;
+      if (!no_video && pool && r.has_best && !video_cancelled()) {
+        if (!quiet) std::cerr << "yamor-optimize: filming the best gait (Ctrl-C skips it)\n";
+        video_lines = MakeBestVideo(*pool, config, problem, r, film_options,
+                                    fs::absolute(instance_dirs[i]), video_cancelled);
       }
       std::cout << "yamor-optimize: " << (batch_path.empty() ? "" : "[" + instances[i].name + "] ")
                 << r.status << " after " << r.evaluations << " evaluations";
@@ -408,6 +511,7 @@ int main(int argc, char** argv) {
       std::cout << "  results:   " << dir.string() << "/ (evaluations.csv, summary.json)\n";
       if (r.has_best) std::cout << "  best gait: " << (dir / "best.xml").string() << "\n";
       if (fs::exists(dir / "progress.png")) std::cout << "  plot:      " << (dir / "progress.png").string() << "\n";
+      for (const std::string& line : video_lines) std::cout << line << "\n";
       if (r.status == "failed") exit_code = 1;
     }
     if (g_signals.load() > 0 && exit_code == 0) exit_code = 130;

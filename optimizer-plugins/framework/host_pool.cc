@@ -13,6 +13,7 @@
 #include <condition_variable>
 #include <deque>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -245,6 +246,8 @@ struct HostPool::Impl {
   int Capacity() const;
   std::vector<HostStatus> Status() const;
   void SetHosts(std::vector<HostAddress> addresses);
+  FilmResult FilmCandidate(const Candidate& candidate, const FilmOptions& options,
+                           const std::function<bool()>& cancelled);
 
  private:
   using CallList = std::vector<std::shared_ptr<Call>>;
@@ -945,6 +948,126 @@ void HostPool::Impl::FinishProbe(Probe* probe, bool ok, int capacity, const std:
 
 // ---- HostPool ------------------------------------------------------------------------
 
+// ---- Filming one candidate -----------------------------------------------------------
+
+namespace {
+
+// Largest filmed reply accepted: the daemon caps the frames at 512 MiB.
+constexpr int kMaxFilmReplyBytes = 600 << 20;
+
+}  // namespace
+
+FilmResult HostPool::Impl::FilmCandidate(const Candidate& candidate, const FilmOptions& options,
+                                         const std::function<bool()>& cancelled) {
+  if (!(options.deadline_seconds >= 0) || !std::isfinite(options.deadline_seconds)) {
+    throw Error(StatusCode::kInvalidArgument,
+                fmt::format("film deadline_seconds must be >= 0, got {}", options.deadline_seconds));
+  }
+  v1::EvaluateRequest request = base_request_;
+  for (const auto& [name, value] : candidate.parameters) {
+    v1::ParameterValue* p = request.add_parameters();
+    p->set_name(name);
+    p->set_value(value);
+  }
+  v1::EvaluationFrames* frames = request.mutable_frames();
+  // Sizes beyond int are sent as they are: the daemon names them.
+  frames->set_width(static_cast<uint32_t>(std::max(0, options.width)));
+  frames->set_height(static_cast<uint32_t>(std::max(0, options.height)));
+  frames->set_frame_rate(options.frame_rate);
+  frames->set_hide_labels(options.hide_labels);
+  frames->set_hide_legend(options.hide_legend);
+  v1::Camera* camera = frames->mutable_camera();
+  camera->set_kind(v1::CAMERA_FOLLOW);
+  if (options.camera_distance) camera->set_distance(*options.camera_distance);
+  if (options.camera_elevation) camera->set_elevation(*options.camera_elevation);
+  if (options.camera_azimuth) camera->set_azimuth(*options.camera_azimuth);
+  const double deadline =
+      options.deadline_seconds > 0 ? options.deadline_seconds : 3.0 * deadline_seconds_;
+
+  // Hosts that are up first, then the rest (a host down for the batches
+  // may have come back).
+  std::vector<HostAddress> order;
+  {
+    std::lock_guard lock(mu_);
+    for (int pass = 0; pass < 2; ++pass) {
+      for (const auto& host : hosts_) {
+        if (!host->removed && host->up == (pass == 0)) order.push_back(host->address);
+      }
+    }
+  }
+  std::string failures;
+  for (const HostAddress& address : order) {
+    const std::string name = address.ToString();
+    // A channel of its own: the pool's channels and their calls stay as they are.
+    const std::shared_ptr<grpc::Channel> channel =
+        MakeHostChannel(name, options_.retry_initial, options_.retry_max, kMaxFilmReplyBytes);
+    const std::unique_ptr<v1::Host::Stub> stub = v1::Host::NewStub(channel);
+    grpc::ClientContext context;
+    context.set_deadline(DeadlineAfter(deadline));
+    v1::EvaluateResponse response;
+    // Shared with the callback, which notifies under the lock: nothing it
+    // touches can be gone when this thread wakes and leaves.
+    struct Done {
+      std::mutex mu;
+      std::condition_variable cv;
+      bool ready = false;
+      grpc::Status status;
+    };
+    const auto done = std::make_shared<Done>();
+    const Clock::time_point started = Clock::now();
+    stub->async()->Evaluate(&context, &request, &response, [done](grpc::Status status) {
+      std::lock_guard lock(done->mu);
+      done->status = std::move(status);
+      done->ready = true;
+      done->cv.notify_all();
+    });
+    bool cancel_sent = false;
+    grpc::Status status;
+    {
+      std::unique_lock lock(done->mu);
+      while (!done->cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return done->ready; })) {
+        if (!cancel_sent && cancelled) {
+          lock.unlock();
+          if (cancelled()) {
+            context.TryCancel();
+            cancel_sent = true;
+          }
+          lock.lock();
+        }
+      }
+      status = done->status;
+    }
+    if (cancel_sent) throw Error(StatusCode::kCancelled, "filming cancelled");
+    if (status.ok()) {
+      FilmResult film;
+      Evaluation& e = film.evaluation;
+      e.velocity = response.velocity();
+      e.distance = response.distance();
+      e.diverged = response.diverged();
+      e.divergence = response.divergence();
+      e.host = name;
+      e.wall_seconds = response.wall_seconds() > 0
+                           ? response.wall_seconds()
+                           : std::chrono::duration<double>(Clock::now() - started).count();
+      film.frames.reserve(static_cast<std::size_t>(response.frames_size()));
+      for (v1::VideoFrame& frame : *response.mutable_frames()) {
+        film.frames.push_back(FilmFrame{.time = frame.time(), .png = std::move(*frame.mutable_png())});
+      }
+      return film;
+    }
+    if (IsCallerError(status.error_code())) {
+      throw Error(static_cast<StatusCode>(status.error_code()),
+                  "filming " + FormatCandidate(candidate) + " on " + name + ": " +
+                      status.error_message());
+    }
+    Log().warn("host pool: {} could not film the candidate: {}", name, DescribeStatus(status));
+    failures += (failures.empty() ? "" : "; ") + name + ": " + DescribeStatus(status);
+  }
+  throw Error(StatusCode::kUnavailable,
+              "no host could film " + FormatCandidate(candidate) +
+                  (failures.empty() ? std::string(": the pool has no host") : ": " + failures));
+}
+
 HostPool::HostPool(std::vector<HostAddress> hosts, EvaluationSettings settings,
                    PoolOptions options)
     : impl_(std::make_unique<Impl>(std::move(hosts), std::move(settings), options)) {}
@@ -962,6 +1085,11 @@ int HostPool::Capacity() const { return impl_->Capacity(); }
 std::vector<HostStatus> HostPool::Status() const { return impl_->Status(); }
 
 void HostPool::SetHosts(std::vector<HostAddress> hosts) { impl_->SetHosts(std::move(hosts)); }
+
+FilmResult HostPool::FilmCandidate(const Candidate& candidate, const FilmOptions& options,
+                                   const std::function<bool()>& cancelled) {
+  return impl_->FilmCandidate(candidate, options, cancelled);
+}
 
 // ---- HostListWatcher -------------------------------------------------------------------
 

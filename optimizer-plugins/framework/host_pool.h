@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -66,6 +67,33 @@ struct EvaluationSettings {
   std::optional<double> ground_slope;            ///< [rad] in [0, π/2); unset: the world's (flat).
   std::optional<double> ground_slope_direction;  ///< Downhill azimuth [rad]; unset: the world's.
   bool upside_down = false;                      ///< Start turned upside down.
+};
+
+/// How FilmCandidate films an evaluation (EvaluateRequest.frames): a
+/// camera following the central module. Thread-safety: plain value.
+struct FilmOptions {
+  int width = 320;          ///< Frame width [px], 1..4096.
+  int height = 240;         ///< Frame height [px], 1..4096.
+  double frame_rate = 25;   ///< Frames per simulated second, (0, 240].
+  std::optional<double> camera_distance;   ///< Eye to module [m]; unset: the daemon's default.
+  std::optional<double> camera_elevation;  ///< Above the horizon [rad]; unset: default.
+  std::optional<double> camera_azimuth;    ///< Module-to-eye direction [rad]; unset: default.
+  bool hide_labels = false;  ///< No module ids next to the modules.
+  bool hide_legend = false;  ///< No legend strip.
+  /// Deadline of the filmed Evaluate [s]; 0: 3 x the evaluations' deadline.
+  double deadline_seconds = 0;
+};
+
+/// One frame of a filmed evaluation.
+struct FilmFrame {
+  double time = 0.0;  ///< Simulated time [s] since the start of the evaluation.
+  std::string png;    ///< 8-bit RGB PNG bytes.
+};
+
+/// A filmed evaluation: its result and its frames in order.
+struct FilmResult {
+  Evaluation evaluation;         ///< As EvaluateBatch would report it.
+  std::vector<FilmFrame> frames; ///< t = 0, 1/frame_rate, ...
 };
 
 /// How the pool treats failing hosts.
@@ -145,6 +173,19 @@ class HostPool final : public Evaluator {
   void RequestStop() override;
   /// Sum of the capacities of the hosts that are up (at least 1).
   int Capacity() const override;
+
+  /// Evaluates `candidate` once more, with the settings of every evaluation,
+  /// on one host of the pool, and returns its frames (issue 14: the video of
+  /// the best gait). Hosts that are up are tried in turn (then the others)
+  /// until one films it; a host's failure here does not mark it down and the
+  /// evaluation counts in no host's `completed`. Independent of RequestStop:
+  /// `cancelled` (polled every 0.1 s) ends it instead. Throws yamor::Error:
+  /// kCancelled when `cancelled` fired; the host's code and message, naming
+  /// the host, for a caller error (INVALID_ARGUMENT, OUT_OF_RANGE, NOT_FOUND,
+  /// FAILED_PRECONDITION); kUnavailable naming every host's failure when no
+  /// host could film it (e.g. none has a renderer).
+  FilmResult FilmCandidate(const Candidate& candidate, const FilmOptions& options,
+                           const std::function<bool()>& cancelled = {});
 
   /// One snapshot per host (draining ones included), in the order they
   /// joined.

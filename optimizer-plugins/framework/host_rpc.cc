@@ -17,13 +17,14 @@ int Milliseconds(double seconds) {
 }  // namespace
 
 std::shared_ptr<grpc::Channel> MakeHostChannel(const std::string& target, double reconnect_initial,
-                                               double reconnect_max) {
+                                               double reconnect_max, int max_receive_bytes) {
   grpc::ChannelArguments args;
   // gRPC's default reconnect backoff (up to 120 s) would delay the call that
   // finds a restarted daemon back; channels to one address stay independent.
   args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, Milliseconds(reconnect_initial));
   args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, Milliseconds(reconnect_max));
   args.SetInt(GRPC_ARG_USE_LOCAL_SUBCHANNEL_POOL, 1);
+  if (max_receive_bytes > 0) args.SetMaxReceiveMessageSize(max_receive_bytes);
   return grpc::CreateCustomChannel(target, grpc::InsecureChannelCredentials(), args);
 }
 

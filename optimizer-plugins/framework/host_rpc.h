@@ -21,8 +21,10 @@ namespace yamor::optimizer {
 /// (not shared with other channels to the address), whose reconnect backoff
 /// runs from `reconnect_initial` to `reconnect_max` seconds: the caller's own
 /// retry policy decides when a daemon is tried again. Thread-safe.
+/// `max_receive_bytes` > 0 raises gRPC's 4 MB limit on a reply (filmed
+/// evaluations carry their frames).
 std::shared_ptr<grpc::Channel> MakeHostChannel(const std::string& target, double reconnect_initial,
-                                               double reconnect_max);
+                                               double reconnect_max, int max_receive_bytes = 0);
 
 /// The wall-clock deadline `seconds` from now, for ClientContext::set_deadline.
 std::chrono::system_clock::time_point DeadlineAfter(double seconds);

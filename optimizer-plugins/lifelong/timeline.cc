@@ -1,5 +1,6 @@
 #include "optimizer-plugins/lifelong/timeline.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -66,6 +67,39 @@ TimelineWriter::TimelineWriter(const std::string& dir) : dir_(dir) {
 void TimelineWriter::Row(const TimelineRow& row) { timeline_ << TimelineLine(row) << "\n" << std::flush; }
 
 void TimelineWriter::Event(const LifeEvent& event) { events_ << EventLine(event) << "\n" << std::flush; }
+
+FramingLog::FramingLog(LifeLog& inner, std::string dir, std::function<std::string()> take_frame,
+                       std::vector<std::string> kinds)
+    : inner_(inner), dir_(std::move(dir)), take_frame_(std::move(take_frame)),
+      kinds_(std::move(kinds)) {}
+
+void FramingLog::Event(const LifeEvent& event) {
+  if (std::find(kinds_.begin(), kinds_.end(), event.kind) == kinds_.end() || !take_frame_) {
+    inner_.Event(event);
+    return;
+  }
+  LifeEvent framed = event;
+  try {
+    const std::string png = take_frame_();
+    const int number = ++counts_[event.kind];
+    const std::string name =
+        "frames/" + event.kind + "-" + (number < 10 ? "0" : "") + std::to_string(number) + ".png";
+    const std::filesystem::path path = std::filesystem::path(dir_) / name;
+    std::filesystem::create_directories(path.parent_path());
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out.write(png.data(), static_cast<std::streamsize>(png.size()));
+    out.close();
+    if (!out) throw Error(StatusCode::kUnavailable, "cannot write " + path.string());
+    framed.fields.emplace_back("frame", JsonString(name));
+    ++frames_;
+  } catch (const std::exception& e) {
+    if (failures_++ == 0) {
+      Log().warn("no picture of the {} event (nor of later ones that fail alike): {}", event.kind,
+                 e.what());
+    }
+  }
+  inner_.Event(framed);
+}
 
 bool PlotTimeline(const std::string& dir, const std::string& title, const std::string& script,
                   const std::string& python) {

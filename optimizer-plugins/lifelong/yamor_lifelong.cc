@@ -22,6 +22,7 @@
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/progress.h"
 #include "optimizer-plugins/lifelong/daemon_port.h"
@@ -166,6 +167,10 @@ int main(int argc, char** argv) {
                  "Serve the status service (yamor.v1.Lifelong: status, event stream) on HOST:PORT "
                  "(port 0: a free one; the line 'yamor-lifelong: status on HOST:PORT' tells it)");
   app.add_flag("--no-plot", no_plot, "Do not draw timeline.png");
+  bool no_frames = false;
+  app.add_flag("--no-frames", no_frames,
+               "Do not save pictures of the key moments (frames/anomaly-NN.png, recalled-NN, "
+               "relearned-NN: the simulated robot drawn by the daemon)");
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
 
@@ -245,8 +250,23 @@ int main(int argc, char** argv) {
       port.set_before_motion([&](double t) { return player->ApplyDue(t); });
       port.set_on_restart([&] { player->Setup(); });
     }
+    // Pictures of the key moments, drawn by the daemon (RenderFrame).
+    FramingLog framing(log, out_dir, no_frames ? std::function<std::string()>() : [&port]() {
+      v1::RenderFrameRequest request;
+      request.set_width(640);
+      request.set_height(480);
+      grpc::ClientContext context;
+      context.set_deadline(optimizer::DeadlineAfter(port.rpc_deadline()));
+      v1::RenderFrameResponse response;
+      const grpc::Status status = port.stub().RenderFrame(&context, request, &response);
+      if (!status.ok()) {
+        throw Error(static_cast<StatusCode>(status.error_code()),
+                    "RenderFrame: " + optimizer::DescribeStatus(status));
+      }
+      return response.png();
+    });
     SessionRelearner relearner(port, relearn);
-    LifeCycle cycle(port, relearner, db, log, life);
+    LifeCycle cycle(port, relearner, db, framing, life);
     log.set_status([&cycle] { return cycle.Status(); });
     std::unique_ptr<StatusServer> status_server;
     if (!listen.empty()) {
@@ -332,6 +352,10 @@ int main(int argc, char** argv) {
     std::cout << "  timeline: " << (dir / "timeline.csv").string() << "\n  events:   "
               << (dir / "events.jsonl").string() << "\n  gaits:    " << fs::absolute(db_path).string() << "\n";
     if (fs::exists(dir / "timeline.png")) std::cout << "  plot:     " << (dir / "timeline.png").string() << "\n";
+    if (framing.frames() > 0) {
+      std::cout << "  frames:   " << (dir / "frames").string() << "/ (" << framing.frames()
+                << " pictures of the key moments; events.jsonl names each)\n";
+    }
     return g_signals.load() > 0 ? 130 : 0;
   } catch (const Error& e) {
     std::cerr << "yamor-lifelong: " << e.what() << "\n";

@@ -21,7 +21,7 @@ struct Image {
 };
 
 /// PNG bytes of `image`: 8-bit RGB when every pixel is opaque, else RGBA.
-/// `fast` trades size for speed (libpng's fast filters and compression), as
+/// `fast` trades size for speed (zlib level 1, no row filters), as
 /// video frames want. Deterministic: the same image gives the same bytes.
 /// Throws yamor::Error(INVALID_ARGUMENT) for an inconsistent image, INTERNAL
 /// when libpng fails.

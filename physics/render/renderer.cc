@@ -162,16 +162,23 @@ class Painter {
     gl_.Vertex2i(x1, y0);
   }
 
-  // `text` with its top-left corner at (x, y), pixels k x k.
+  // `text` with its top-left corner at (x, y), pixels k x k. Each run of
+  // set pixels in a glyph row is one quad (the same pixels as one quad per
+  // pixel, with fewer of llvmpipe's per-primitive setups).
   void Text(std::string_view text, int x, int y, int k) {
     gl_.Begin(GL_QUADS);
     for (char c : text) {
       if (const Glyph* g = FindGlyph(c)) {
         for (int row = 0; row < 5; ++row) {
-          for (int col = 0; col < 3; ++col) {
-            if ((g->rows[row] >> (2 - col)) & 1) {
-              Rect(x + col * k, y + row * k, x + (col + 1) * k, y + (row + 1) * k);
+          for (int col = 0; col < 3;) {
+            if (((g->rows[row] >> (2 - col)) & 1) == 0) {
+              ++col;
+              continue;
             }
+            int end = col + 1;
+            while (end < 3 && ((g->rows[row] >> (2 - end)) & 1)) ++end;
+            Rect(x + col * k, y + row * k, x + end * k, y + (row + 1) * k);
+            col = end;
           }
         }
       }

@@ -19,6 +19,7 @@
 #include <fmt/format.h>
 
 #include "common/status.h"
+#include "physics/render/renderer.h"
 
 extern char** environ;
 
@@ -47,16 +48,34 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
     const char* env = std::getenv("YAMOR_FFMPEG");
     options_.ffmpeg = env && *env ? env : "ffmpeg";
   }
+  const bool raw = options_.raw_width > 0 || options_.raw_height > 0;
+  if (raw) ValidateFrameSize(options_.raw_width, options_.raw_height);
   std::signal(SIGPIPE, SIG_IGN);
 
-  std::vector<std::string> argv = {options_.ffmpeg, "-hide_banner", "-loglevel", "error", "-y",
-                                   "-f", "image2pipe", "-framerate", FormatRate(options_.frame_rate),
-                                   "-c:v", "png", "-i", "-"};
+  std::vector<std::string> argv = {options_.ffmpeg, "-hide_banner", "-loglevel", "error", "-y"};
+  if (raw) {
+    for (const std::string& a :
+         {std::string("-f"), std::string("rawvideo"), std::string("-pix_fmt"), std::string("rgba"),
+          std::string("-s"), fmt::format("{}x{}", options_.raw_width, options_.raw_height),
+          std::string("-framerate"), FormatRate(options_.frame_rate), std::string("-i"),
+          std::string("-")}) {
+      argv.push_back(a);
+    }
+  } else {
+    for (const std::string& a : {std::string("-f"), std::string("image2pipe"),
+                                 std::string("-framerate"), FormatRate(options_.frame_rate),
+                                 std::string("-c:v"), std::string("png"), std::string("-i"),
+                                 std::string("-")}) {
+      argv.push_back(a);
+    }
+  }
   if (EndsWith(path_, ".mp4") || EndsWith(path_, ".mov") || EndsWith(path_, ".mkv")) {
     // H.264 in 4:2:0 wants even sizes: an odd width or height gets one
-    // more column or row.
+    // more column or row. One encoder thread: small frames gain nothing
+    // from x264's frame threads but pay for their synchronisation (and the
+    // CPU is better spent on other evaluations).
     for (const char* a : {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-preset",
-                          "ultrafast", "-crf", "20", "-pix_fmt", "yuv420p"}) {
+                          "ultrafast", "-crf", "20", "-pix_fmt", "yuv420p", "-threads", "1"}) {
       argv.emplace_back(a);
     }
     if (EndsWith(path_, ".mp4")) {
@@ -133,21 +152,55 @@ std::string VideoWriter::FfmpegMessages() const {
   return s.empty() ? std::string("no message") : s;
 }
 
+void VideoWriter::WriteSequenceFile(std::span<const uint8_t> png) {
+  const std::string name = fmt::format("{}-{:06d}.png", sequence_stem_, result_.frames);
+  std::ofstream out(name, std::ios::binary | std::ios::trunc);
+  out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+  out.close();
+  if (!out) throw Error(StatusCode::kInternal, "cannot write " + name);
+  if (result_.frames == 0) result_.path = name;
+  ++result_.frames;
+}
+
 void VideoWriter::AddFrame(std::span<const uint8_t> png) {
   YAMOR_CHECK(!finished_, "VideoWriter::AddFrame after Finish");
+  if (options_.raw_width > 0) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "this video takes raw images (AddImage), not PNG frames");
+  }
   if (!result_.video) {
-    const std::string name = fmt::format("{}-{:06d}.png", sequence_stem_, result_.frames);
-    std::ofstream out(name, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
-    out.close();
-    if (!out) throw Error(StatusCode::kInternal, "cannot write " + name);
-    if (result_.frames == 0) result_.path = name;
-    ++result_.frames;
+    WriteSequenceFile(png);
     return;
   }
+  WriteToFfmpeg(png.data(), png.size());
+  ++result_.frames;
+}
+
+void VideoWriter::AddImage(const Image& image) {
+  YAMOR_CHECK(!finished_, "VideoWriter::AddImage after Finish");
+  if (options_.raw_width <= 0) {
+    throw Error(StatusCode::kFailedPrecondition,
+                "this video takes PNG frames (AddFrame); set raw_width and raw_height for images");
+  }
+  if (image.width != options_.raw_width || image.height != options_.raw_height ||
+      image.rgba.size() != static_cast<std::size_t>(image.width) * image.height * 4) {
+    throw Error(StatusCode::kInvalidArgument,
+                fmt::format("video frame {}x{} ({} bytes) is not the video's {}x{} RGBA",
+                            image.width, image.height, image.rgba.size(), options_.raw_width,
+                            options_.raw_height));
+  }
+  if (!result_.video) {
+    WriteSequenceFile(EncodePng(image));
+    return;
+  }
+  WriteToFfmpeg(image.rgba.data(), image.rgba.size());
+  ++result_.frames;
+}
+
+void VideoWriter::WriteToFfmpeg(const uint8_t* data, std::size_t size) {
   std::size_t done = 0;
-  while (done < png.size()) {
-    const ssize_t n = write(pipe_, png.data() + done, png.size() - done);
+  while (done < size) {
+    const ssize_t n = write(pipe_, data + done, size - done);
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) {
       const int error = errno;
@@ -159,7 +212,6 @@ void VideoWriter::AddFrame(std::span<const uint8_t> png) {
     }
     done += static_cast<std::size_t>(n);
   }
-  ++result_.frames;
 }
 
 VideoResult VideoWriter::Finish() {

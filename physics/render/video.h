@@ -8,6 +8,8 @@
 #include <string>
 #include <sys/types.h>
 
+#include "physics/render/image.h"
+
 namespace yamor::render {
 
 /// Settings of a VideoWriter. Thread-safety: plain value.
@@ -15,6 +17,12 @@ struct VideoOptions {
   double frame_rate = 25.0;  ///< Frames per second of the video, (0, 1000].
   /// The ffmpeg program (looked up in PATH); empty: $YAMOR_FFMPEG, else "ffmpeg".
   std::string ffmpeg;
+  /// Both > 0: frames come as RGBA images of this size (AddImage) and go to
+  /// ffmpeg raw (`-f rawvideo`), with no PNG encoded or decoded on the way:
+  /// for frames rendered in the writing process. Without ffmpeg, AddImage
+  /// writes the PNG sequence itself. 0: frames come as PNG bytes (AddFrame).
+  int raw_width = 0;
+  int raw_height = 0;  ///< See raw_width.
 };
 
 /// What a VideoWriter produced.
@@ -47,6 +55,10 @@ class VideoWriter {
   /// yamor::Error(UNAVAILABLE) when ffmpeg stopped taking frames (with its
   /// message) or INTERNAL when a PNG file cannot be written.
   void AddFrame(std::span<const uint8_t> png);
+  /// Appends one frame as an RGBA image (raw mode only: raw_width and
+  /// raw_height set). Throws yamor::Error: INVALID_ARGUMENT for an image of
+  /// another size, FAILED_PRECONDITION outside raw mode, and AddFrame's.
+  void AddImage(const Image& image);
   /// Closes the video and waits for ffmpeg. Throws yamor::Error(UNAVAILABLE)
   /// with ffmpeg's messages when it failed.
   VideoResult Finish();
@@ -54,6 +66,8 @@ class VideoWriter {
  private:
   std::string FfmpegMessages() const;
   void Stop();
+  void WriteToFfmpeg(const uint8_t* data, std::size_t size);
+  void WriteSequenceFile(std::span<const uint8_t> png);
 
   std::string path_;
   VideoOptions options_;

@@ -601,6 +601,93 @@ TEST(EvaluateTest, CancellationStopsBetweenChunks) {
   EXPECT_EQ(checks, 6);
 }
 
+// EvaluationSpec::film: frames from the evaluating thread's own world, the
+// result untouched by them.
+TEST(EvaluateTest, AFilmedEvaluationReturnsItsFramesAndTheSameResult) {
+  EvaluationSpec plain = QuadrupedEvaluation(0.5, 1.0);
+  const EvaluationResult base = RunEvaluation(plain, nullptr);
+  EvaluationSpec filmed = plain;
+  filmed.film = EvaluationFilm{.frame = {.width = 48, .height = 36}, .frame_rate = 10};
+  EvaluationResult a;
+  try {
+    a = RunEvaluation(filmed, nullptr);
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kUnavailable) throw;
+    GTEST_SKIP() << "no renderer on this machine: " << e.what();
+  }
+  EXPECT_EQ(a.velocity, base.velocity) << "filming never changes the evaluation";
+  EXPECT_EQ(a.final_pose.position, base.final_pose.position);
+  EXPECT_TRUE(base.frames.empty());
+  ASSERT_EQ(a.frames.size(), 15u) << "1.5 s at 10 frames per second";
+  for (std::size_t i = 0; i < a.frames.size(); ++i) {
+    EXPECT_EQ(a.frames[i].index, i);
+    EXPECT_NEAR(a.frames[i].time, 0.1 * static_cast<double>(i), 1e-9);
+    const render::Image image = render::DecodePng(a.frames[i].png);
+    EXPECT_EQ(image.width, 48);
+    EXPECT_EQ(image.height, 36);
+  }
+  EXPECT_NE(a.frames.front().png, a.frames.back().png) << "the robot moves";
+
+  // Deterministic, and one GL context per thread: two workers film the same
+  // evaluation at once and get the same bytes.
+  WorkerPool pool(2);
+  auto x = pool.Submit([&] { return RunEvaluation(filmed, nullptr); });
+  auto y = pool.Submit([&] { return RunEvaluation(filmed, nullptr); });
+  const EvaluationResult rx = x.get();
+  const EvaluationResult ry = y.get();
+  ASSERT_EQ(rx.frames.size(), a.frames.size());
+  ASSERT_EQ(ry.frames.size(), a.frames.size());
+  for (std::size_t i = 0; i < a.frames.size(); ++i) {
+    EXPECT_EQ(rx.frames[i].png, a.frames[i].png) << i;
+    EXPECT_EQ(ry.frames[i].png, a.frames[i].png) << i;
+  }
+
+  // A period that is no whole number of steps: absolute frame times, no drift.
+  filmed.film->frame_rate = 30;
+  filmed.film->frame.width = 8;
+  filmed.film->frame.height = 8;
+  const EvaluationResult b = RunEvaluation(filmed, nullptr);
+  ASSERT_EQ(b.frames.size(), 45u);
+  EXPECT_NEAR(b.frames.back().time, 44.0 / 30.0, 0.0011);
+  EXPECT_EQ(b.velocity, base.velocity);
+}
+
+TEST(EvaluateTest, BadFilmValuesAreRefusedNamingThemBeforeTheWorld) {
+  struct Case {
+    const char* name;
+    std::function<void(EvaluationFilm&)> change;
+    StatusCode code;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {"width 0", [](EvaluationFilm& f) { f.frame.width = 0; }, StatusCode::kOutOfRange,
+       "frame width 0 is outside 1..4096"},
+      {"huge height", [](EvaluationFilm& f) { f.frame.height = 5000; }, StatusCode::kOutOfRange,
+       "frame height 5000 is outside 1..4096"},
+      {"rate 0", [](EvaluationFilm& f) { f.frame_rate = 0; }, StatusCode::kOutOfRange,
+       "frame rate 0 per second is outside (0, 240]"},
+      {"NaN rate", [](EvaluationFilm& f) { f.frame_rate = std::nan(""); },
+       StatusCode::kInvalidArgument, "frame rate is not finite: nan"},
+      {"NaN camera", [](EvaluationFilm& f) { f.frame.camera.elevation = std::nan(""); },
+       StatusCode::kInvalidArgument, "camera elevation is not finite: nan"},
+  };
+  for (const Case& c : cases) {
+    EvaluationSpec spec = QuadrupedEvaluation(0.5, 1.0);
+    spec.film = EvaluationFilm{.frame = {.width = 32, .height = 24}, .frame_rate = 10};
+    c.change(*spec.film);
+    std::string message;
+    EXPECT_EQ(CodeOf([&] { RunEvaluation(spec, nullptr); }, &message), c.code) << c.name;
+    EXPECT_EQ(message, c.message) << c.name;
+  }
+  EvaluationSpec long_film = QuadrupedEvaluation(0.0, 1000.0);
+  long_film.film = EvaluationFilm{.frame = {.width = 8, .height = 8}, .frame_rate = 240};
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(long_film, nullptr); }, &message), StatusCode::kOutOfRange);
+  EXPECT_NE(message.find("240000 frames, more than 100000"), std::string::npos) << message;
+  EXPECT_EQ(EvaluationFrameCount(3.0, 25.0), 75u);
+  EXPECT_EQ(EvaluationFrameCount(0.01, 25.0), 1u);
+}
+
 TEST(EvaluateTest, TheWorkerPoolRunsJobsInParallelAndPropagatesErrors) {
   WorkerPool pool(2);
   EXPECT_EQ(pool.size(), 2u);

@@ -3,12 +3,14 @@
 
 #include <cmath>
 #include <functional>
+#include <span>
 #include <string>
 #include <thread>
 
 #include "host/service.h"
 #include "host/sim_backend.h"
 #include "host/worlds.h"
+#include "physics/render/image.h"
 #include "tests/host/grpc_util.h"
 #include "tests/host/test_util.h"
 
@@ -415,6 +417,63 @@ TEST_F(ServiceTest, ParallelEvaluationsBothSucceed) {
   EXPECT_OK(sa);
   EXPECT_OK(sb);
   EXPECT_EQ(a.velocity(), b.velocity());
+}
+
+// Issue 14: EvaluateRequest.frames films the evaluation; bad frame options
+// are refused, naming the value, before any world is built.
+TEST_F(ServiceTest, EvaluateReturnsTheFramesOfTheEvaluation) {
+  using Code = grpc::StatusCode;
+  v1::EvaluateRequest request;
+  request.set_world("quadruped");
+  request.set_warmup(0.5);
+  request.set_duration(1.0);
+  request.set_seed(5);
+  v1::EvaluateResponse plain;
+  EXPECT_OK(Call(*stub_, &v1::Host::Stub::Evaluate, request, &plain));
+  EXPECT_EQ(plain.frames_size(), 0);
+
+  auto filmed = [&](const std::function<void(v1::EvaluationFrames&)>& change,
+                    v1::EvaluateResponse* response) {
+    v1::EvaluateRequest r = request;
+    v1::EvaluationFrames* frames = r.mutable_frames();
+    frames->set_width(40);
+    frames->set_height(30);
+    frames->set_frame_rate(4);
+    frames->set_hide_legend(true);
+    change(*frames);
+    return Call(*stub_, &v1::Host::Stub::Evaluate, r, response);
+  };
+  v1::EvaluateResponse response;
+  EXPECT_EQ(filmed([](v1::EvaluationFrames& f) { f.set_width(0); }, &response).error_message(),
+            "frame width 0 is outside 1..4096");
+  EXPECT_EQ(filmed([](v1::EvaluationFrames& f) { f.set_height(100000); }, &response).error_code(),
+            Code::OUT_OF_RANGE);
+  EXPECT_EQ(filmed([](v1::EvaluationFrames& f) { f.set_frame_rate(0); }, &response).error_message(),
+            "frame rate 0 per second is outside (0, 240]");
+  const grpc::Status nan = filmed(
+      [](v1::EvaluationFrames& f) { f.mutable_camera()->set_distance(std::nan("")); }, &response);
+  EXPECT_EQ(nan.error_code(), Code::INVALID_ARGUMENT);
+  EXPECT_EQ(nan.error_message(), "camera distance is not finite: nan");
+  const grpc::Status kind = filmed(
+      [](v1::EvaluationFrames& f) { f.mutable_camera()->set_kind(static_cast<v1::CameraKind>(9)); },
+      &response);
+  EXPECT_EQ(kind.error_code(), Code::INVALID_ARGUMENT);
+
+  const grpc::Status status = filmed([](v1::EvaluationFrames&) {}, &response);
+  if (status.error_code() == Code::UNAVAILABLE) GTEST_SKIP() << status.error_message();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(response.velocity(), plain.velocity());
+  ASSERT_EQ(response.frames_size(), 6) << "1.5 s at 4 frames per second";
+  for (int i = 0; i < response.frames_size(); ++i) {
+    const v1::VideoFrame& frame = response.frames(i);
+    EXPECT_EQ(frame.index(), static_cast<uint32_t>(i));
+    EXPECT_NEAR(frame.time(), 0.25 * i, 1e-9);
+    const std::string& png = frame.png();
+    const render::Image image = render::DecodePng(
+        std::span(reinterpret_cast<const uint8_t*>(png.data()), png.size()));
+    EXPECT_EQ(image.width, 40);
+    EXPECT_EQ(image.height, 30);
+  }
 }
 
 // Issue 13 §2: the evaluated robot's condition travels in the request and

@@ -256,6 +256,26 @@ def test_evaluate_is_deterministic(fresh):
     assert fresh.elapsed_time() == 0.0
 
 
+def test_a_filmed_evaluation_returns_its_frames(fresh):
+    plain = fresh.evaluate(seed=5, warmup=0.5, duration=1)
+    filmed = fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, width=40, height=30,
+                            legend=False)
+    assert plain.frames == []
+    assert filmed.velocity == plain.velocity  # filming changes nothing
+    assert [f.index for f in filmed.frames] == list(range(6))
+    assert [f.time for f in filmed.frames] == pytest.approx([0, 0.25, 0.5, 0.75, 1.0, 1.25])
+    for f in filmed.frames:
+        assert f.png[:8] == b"\x89PNG\r\n\x1a\n"
+        assert int.from_bytes(f.png[16:20], "big") == 40 and int.from_bytes(f.png[20:24], "big") == 30
+    with pytest.raises(yamor.HostError) as e:
+        fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, width=0)
+    assert e.value.code == "OUT_OF_RANGE" and "frame width 0" in str(e.value)
+    with pytest.raises(yamor.HostError) as e:
+        fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, distance=math.nan)
+    assert e.value.code == "INVALID_ARGUMENT" and "camera distance is not finite" in str(e.value)
+    assert fresh.elapsed_time() == 0.0
+
+
 def test_evaluate_takes_the_robots_condition(fresh):
     healthy = fresh.evaluate(seed=5, warmup=1, duration=2)
     for condition in ({"motor_defects": {2: "limp"}}, {"module_defects": [3]},

@@ -152,6 +152,9 @@ def test_list_plugins_shows_powell_and_its_fields():
     (["--plugin", "nosuch"], "no optimizer plugin named 'nosuch'"),
     (["--config", "/nonexistent.xml"], "/nonexistent.xml"),
     (["--hosts", "localhost:99999"], "localhost:99999"),
+    (["--video-size", "320"], "--video-size 320: expected WIDTHxHEIGHT"),
+    (["--video-size", "0x240"], "--video-size 0x240: width and height must be 1..4096"),
+    (["--video-fps", "0"], "--video-fps 0 is outside (0, 240]"),
 ])
 def test_bad_arguments_exit_2_naming_the_problem(tmp_path, args, message):
     if not OPTIMIZE.is_file():

@@ -5,7 +5,8 @@
 // against the 20-s evaluation it shows. A plain program printing a table
 // (tools/bench/run.sh's plain_programs).
 //
-//   render_bench [--frames N] [--png DIR] [--backend osmesa|egl]
+//   render_bench [--frames N] [--runs N] [--video-only] [--breakdown] [--png DIR]
+//                [--backend osmesa|egl]
 //
 // --png DIR also writes a sample frame of each robot and camera there.
 // CPU times are the whole process's (llvmpipe rasterises on its own
@@ -13,6 +14,7 @@
 #include <sys/resource.h>
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -114,6 +116,61 @@ Rate Measure(Renderer& renderer, const Scene& scene, const Camera& camera, int w
   return rate;
 }
 
+double Median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  const std::size_t n = values.size();
+  return n == 0 ? 0.0 : n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+}
+
+struct VideoCost {
+  double frames_cpu = 0;  // this process: rendering (+ PNG), the simulation left out
+  double ffmpeg_cpu = 0;  // the ffmpeg child
+  bool video = false;     // ffmpeg ran
+};
+
+// 500 frames of the quadruped walking from t = 0, 0.04 s apart, into an
+// MP4: PNG frames (`raw` false) or raw RGBA frames.
+VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw) {
+  auto robot = Quadruped(0.0);
+  std::vector<yamor::snp::Frame> out;
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("render_bench_" + std::to_string(getpid()) + ".mp4"))
+                               .string();
+  VideoCost cost;
+  const double children_start = ChildrenCpuSeconds();
+  yamor::render::VideoResult video;
+  {
+    yamor::render::VideoOptions options{.frame_rate = 25};
+    if (raw) {
+      options.raw_width = 320;
+      options.raw_height = 240;
+    }
+    yamor::render::VideoWriter writer(path, options);
+    for (int i = 0; i < 500; ++i) {
+      const double t0 = ProcessCpuSeconds();
+      const yamor::render::Image image =
+          renderer.Render(yamor::bridge::SceneOf(robot->world()), camera, 320, 240);
+      if (raw) {
+        writer.AddImage(image);
+      } else {
+        writer.AddFrame(yamor::render::EncodePng(image, true));
+      }
+      cost.frames_cpu += ProcessCpuSeconds() - t0;
+      robot->Advance(0.04, out);
+    }
+    video = writer.Finish();
+  }
+  cost.ffmpeg_cpu = ChildrenCpuSeconds() - children_start;
+  cost.video = video.video;
+  std::filesystem::remove(path);
+  if (!video.video) {
+    for (int i = 0; i < video.frames; ++i) {
+      std::filesystem::remove(fmt::format("{}-{:06d}.png", path.substr(0, path.size() - 4), i));
+    }
+  }
+  return cost;
+}
+
 void WritePng(const std::string& path, const yamor::render::Image& image) {
   const std::vector<uint8_t> png = yamor::render::EncodePng(image);
   std::ofstream(path, std::ios::binary)
@@ -127,7 +184,13 @@ int main(int argc, char** argv) {
   int frames = 40;
   std::string png_dir;
   std::string backend_name = "auto";
+  int runs = 5;
+  bool video_only = false;
   app.add_option("--frames", frames, "Frames per measurement");
+  app.add_option("--runs", runs, "Runs of the 20-s video measurement (medians)")->check(CLI::PositiveNumber);
+  app.add_flag("--video-only", video_only, "Only the 20-s video measurement");
+  bool breakdown = false;
+  app.add_flag("--breakdown", breakdown, "Also the CPU per frame with each part switched off");
   app.add_option("--png", png_dir, "Also write sample frames into this directory");
   app.add_option("--backend", backend_name, "auto, osmesa or egl")
       ->check(CLI::IsMember({"auto", "osmesa", "egl"}));
@@ -153,9 +216,12 @@ int main(int argc, char** argv) {
   std::vector<Case> cases = {{"quadruped", yamor::bridge::SceneOf(quadruped->world()), follow},
                              {"snake64", yamor::bridge::SceneOf(snake.world()), snake_view}};
 
-  std::printf("%-10s %-8s %11s %15s %14s %18s %8s\n", "robot", "size", "render fps",
-              "render+png fps", "render CPU ms", "render+png CPU ms", "png KiB");
+  if (!video_only) {
+    std::printf("%-10s %-8s %11s %15s %14s %18s %8s\n", "robot", "size", "render fps",
+                "render+png fps", "render CPU ms", "render+png CPU ms", "png KiB");
+  }
   for (const Case& c : cases) {
+    if (video_only) break;
     for (auto [w, h] : {std::pair{320, 240}, std::pair{640, 480}}) {
       const Rate r = Measure(renderer, c.scene, c.camera, w, h, frames);
       std::printf("%-10s %-8s %11.1f %15.1f %14.2f %18.2f %8.1f\n", c.name,
@@ -164,51 +230,72 @@ int main(int argc, char** argv) {
     }
   }
 
-  // A 20-s video at 25 fps of the 20-s evaluation it shows (quadruped).
-  const double eval_cpu_start = ProcessCpuSeconds();
-  const auto evaluated = Quadruped(20.0);
-  const double eval_cpu = ProcessCpuSeconds() - eval_cpu_start;
-  auto robot = Quadruped(0.0);
-  std::vector<yamor::snp::Frame> out;
-  const std::string video_path =
-      (std::filesystem::temp_directory_path() / ("render_bench_" + std::to_string(getpid()) + ".mp4"))
-          .string();
-  const double cpu_start = ProcessCpuSeconds();
-  const double children_start = ChildrenCpuSeconds();
-  double frames_cpu = 0;
-  yamor::render::VideoResult video;
-  {
-    yamor::render::VideoWriter writer(video_path, {.frame_rate = 25});
-    for (int i = 0; i < 500; ++i) {
-      const double t0 = ProcessCpuSeconds();
-      writer.AddFrame(yamor::render::EncodePng(
-          renderer.Render(yamor::bridge::SceneOf(robot->world()), follow, 320, 240), true));
-      frames_cpu += ProcessCpuSeconds() - t0;
-      robot->Advance(0.04, out);
-    }
-    video = writer.Finish();
-  }
-  const double total_cpu = ProcessCpuSeconds() - cpu_start;
-  const double ffmpeg_cpu = ChildrenCpuSeconds() - children_start;
-  std::filesystem::remove(video_path);
-  std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames):\n");
-  std::printf("  evaluation alone (20 s simulated)   %7.2f s CPU\n", eval_cpu);
-  std::printf("  frames: render + PNG                 %7.2f s CPU (%.2fx the evaluation)\n",
-              frames_cpu, frames_cpu / eval_cpu);
-  std::printf("  ffmpeg (H.264)                       %7.2f s CPU%s\n", ffmpeg_cpu,
-              video.video ? "" : " (no ffmpeg: PNG sequence)");
-  std::printf("  whole video run incl. simulation     %7.2f s CPU\n", total_cpu + ffmpeg_cpu);
-  std::printf("  video cost / evaluation              %7.2fx\n", (frames_cpu + ffmpeg_cpu) / eval_cpu);
-  if (!video.video) {
-    for (int i = 0; i < video.frames; ++i) {
-      std::filesystem::remove(fmt::format("{}-{:06d}.png", video_path.substr(0, video_path.size() - 4), i));
+  if (breakdown) {
+    // What each part of a frame costs: the quadruped at 320x240 with one
+    // part switched off at a time (CPU ms per frame, median of 5 batches).
+    struct Part {
+      const char* name;
+      yamor::render::RenderOptions options;
+    };
+    const std::vector<Part> parts = {
+        {"everything", {}},
+        {"no grid", {.grid = false}},
+        {"no edges", {.edges = false}},
+        {"no shadows", {.shadows = false}},
+        {"no lighting", {.lighting = false}},
+        {"no labels, no legend", {.labels = false, .legend = false}},
+        {"none of these",
+         {.lighting = false, .edges = false, .grid = false, .shadows = false, .labels = false,
+          .legend = false}},
+    };
+    std::printf("\nquadruped 320x240, CPU ms per frame:\n");
+    for (const Part& part : parts) {
+      std::vector<double> batches;
+      for (int b = 0; b < 5; ++b) {
+        const double cpu = ProcessCpuSeconds();
+        for (int i = 0; i < frames; ++i) renderer.Render(cases[0].scene, follow, 320, 240, part.options);
+        batches.push_back((ProcessCpuSeconds() - cpu) * 1e3 / frames);
+      }
+      std::printf("  %-22s %6.2f\n", part.name, Median(batches));
     }
   }
+
+  // A 20-s video at 25 fps of the 20-s evaluation it shows (quadruped),
+  // `runs` times: the evaluation alone, then the video made two ways (PNG
+  // frames piped to ffmpeg as RecordFrames' clients do; raw RGBA frames piped
+  // to ffmpeg as an in-process writer can). Medians over the runs; each
+  // run's ratio is against the evaluation measured in the same run.
+  std::vector<double> eval_cpus, png_frames, png_ffmpeg, png_ratio, raw_frames, raw_ffmpeg,
+      raw_ratio;
+  bool made_video = true;
+  for (int run = 0; run < runs; ++run) {
+    const double eval_cpu_start = ProcessCpuSeconds();
+    const auto evaluated = Quadruped(20.0);
+    const double eval_cpu = ProcessCpuSeconds() - eval_cpu_start;
+    eval_cpus.push_back(eval_cpu);
+    for (const bool raw : {false, true}) {
+      const VideoCost cost = MakeVideo(renderer, follow, raw);
+      made_video = made_video && cost.video;
+      (raw ? raw_frames : png_frames).push_back(cost.frames_cpu);
+      (raw ? raw_ffmpeg : png_ffmpeg).push_back(cost.ffmpeg_cpu);
+      (raw ? raw_ratio : png_ratio).push_back((cost.frames_cpu + cost.ffmpeg_cpu) / eval_cpu);
+    }
+  }
+  std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames), median of %d runs:\n", runs);
+  std::printf("  evaluation alone (20 s simulated)      %7.2f s CPU\n", Median(eval_cpus));
+  std::printf("  PNG frames: render + PNG               %7.2f s CPU\n", Median(png_frames));
+  std::printf("  PNG frames: ffmpeg (H.264)             %7.2f s CPU%s\n", Median(png_ffmpeg),
+              made_video ? "" : " (no ffmpeg: PNG sequence)");
+  std::printf("  PNG frames: video cost / evaluation    %7.2fx\n", Median(png_ratio));
+  std::printf("  raw frames: render                     %7.2f s CPU\n", Median(raw_frames));
+  std::printf("  raw frames: ffmpeg (H.264)             %7.2f s CPU\n", Median(raw_ffmpeg));
+  std::printf("  raw frames: video cost / evaluation    %7.2fx\n", Median(raw_ratio));
 
   if (!png_dir.empty()) {
     std::filesystem::create_directories(png_dir);
     Camera top;
     top.kind = CameraKind::kTop;
+    const auto evaluated = Quadruped(20.0);
     const Scene walked = yamor::bridge::SceneOf(evaluated->world());
     top.target = walked.Central()->body.position;
     top.target.z() = 0;
@@ -218,6 +305,5 @@ int main(int argc, char** argv) {
     WritePng(png_dir + "/snake64.png", renderer.Render(cases[1].scene, snake_view, 640, 480));
     std::printf("\nsample frames in %s\n", png_dir.c_str());
   }
-  (void)evaluated;
   return 0;
 }

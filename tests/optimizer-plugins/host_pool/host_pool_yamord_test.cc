@@ -13,6 +13,7 @@
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <thread>
 #include <future>
 #include <map>
@@ -94,6 +95,16 @@ yamor::v1::EvaluateResponse DirectEvaluate(const HostAddress& address,
   return response;
 }
 
+// The code of what `f` throws (kOk when it returns).
+StatusCode CodeOfFilm(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.code();
+  }
+  return StatusCode::kOk;
+}
+
 TEST(HostPoolYamordTest, TwoDaemonsGiveTheDirectResultsInOrder) {
   Daemon a(1), b(1);
   ASSERT_GT(a.port(), 0);
@@ -164,6 +175,72 @@ TEST(HostPoolYamordTest, UnknownParameterIsACallerError) {
   const HostStatus s = StatusOf(pool, 0);
   EXPECT_TRUE(s.up);
   EXPECT_EQ(s.failures, 0) << "a caller error is no host failure";
+}
+
+// Issue 14: FilmCandidate evaluates once more with frames on a host of the
+// pool: the same result as the batch's, any host that can film, errors.
+TEST(HostPoolYamordTest, FilmCandidateReturnsTheFramesOfTheSameEvaluation) {
+  // A daemon that acts as a machine without a renderer.
+  setenv("YAMOR_RENDER_BACKEND", "none", 1);
+  Daemon blind(1);
+  unsetenv("YAMOR_RENDER_BACKEND");
+  ASSERT_GT(blind.port(), 0);
+  const Candidate candidate = Gaits(3)[2];
+  FilmOptions options;
+  options.width = 32;
+  options.height = 24;
+  options.frame_rate = 10;
+  {
+    HostPool only_blind({blind.address()}, Quadruped(), FastRetry());
+    try {
+      only_blind.FilmCandidate(candidate, options);
+      ADD_FAILURE() << "a daemon without a renderer filmed";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.code(), StatusCode::kUnavailable) << e.what();
+      EXPECT_NE(std::string(e.what()).find("no host could film"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(blind.address().ToString()), std::string::npos);
+    }
+    EXPECT_EQ(StatusOf(only_blind, 0).failures, 0) << "a failed film marks no host down";
+  }
+
+  Daemon a(1);
+  ASSERT_GT(a.port(), 0);
+  HostPool pool({blind.address(), a.address()}, Quadruped(), FastRetry());
+  const std::vector<Evaluation> batch = EvaluateGuarded(pool, {candidate});
+  FilmResult film;
+  try {
+    film = pool.FilmCandidate(candidate, options);
+  } catch (const Error& e) {
+    if (e.code() == StatusCode::kUnavailable) GTEST_SKIP() << "no renderer: " << e.what();
+    throw;
+  }
+  EXPECT_EQ(film.evaluation.host, a.address().ToString()) << "the host that can film";
+  EXPECT_EQ(film.evaluation.velocity, batch[0].velocity) << "the same evaluation";
+  ASSERT_EQ(film.frames.size(), 20u) << "2 s at 10 frames per second";
+  for (std::size_t i = 0; i < film.frames.size(); ++i) {
+    EXPECT_NEAR(film.frames[i].time, 0.1 * static_cast<double>(i), 1e-9);
+    EXPECT_EQ(film.frames[i].png.substr(1, 3), "PNG");
+  }
+
+  // A caller error names the value and the host; no other host is tried.
+  FilmOptions bad = options;
+  bad.width = 0;
+  try {
+    pool.FilmCandidate(candidate, bad);
+    ADD_FAILURE() << "width 0 filmed";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kOutOfRange) << e.what();
+    EXPECT_NE(std::string(e.what()).find("frame width 0"), std::string::npos) << e.what();
+  }
+  // Cancelled, even after RequestStop (which ends batches, not films).
+  pool.RequestStop();
+  FilmOptions slow = options;
+  slow.width = 640;
+  slow.height = 480;
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(CodeOfFilm([&] { pool.FilmCandidate(candidate, slow, [] { return true; }); }),
+            StatusCode::kCancelled);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, seconds(30));
 }
 
 // Issue 13 §2 "model" mode: the robot's condition travels with every request.

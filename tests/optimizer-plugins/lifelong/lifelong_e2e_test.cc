@@ -12,6 +12,7 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -19,9 +20,9 @@
 
 #include <grpcpp/grpcpp.h>
 
-#include <mutex>
-
+#include "common/status.h"
 #include "optimizer-plugins/lifelong/gait_database.h"
+#include "physics/render/renderer.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/lifelong.grpc.pb.h"
 
@@ -161,6 +162,24 @@ file = ")" + kSource + R"(/configs/scripts/quadruped-transform.xml"
   const std::string timeline = Read(out / "timeline.csv");
   EXPECT_NE(timeline.find(",walking,"), std::string::npos);
   EXPECT_NE(timeline.find(",relearning,"), std::string::npos);
+  // Pictures of the key moments (issue 14), named in their events, when
+  // this machine (the daemon's) has a renderer.
+  bool renderer = true;
+  try {
+    yamor::render::Renderer probe;
+  } catch (const yamor::Error&) {
+    renderer = false;
+  }
+  if (renderer) {
+    EXPECT_EQ(Field(anomalies[0], "frame"), "frames/anomaly-01.png") << anomalies[0];
+    EXPECT_EQ(Field(Events(out, "relearned")[0], "frame"), "frames/relearned-01.png");
+    for (const char* name : {"anomaly-01.png", "relearned-01.png"}) {
+      EXPECT_EQ(Read(out / "frames" / name).substr(0, 4), "\x89PNG") << name;
+    }
+    EXPECT_NE(text.find("frames:"), std::string::npos) << text;
+  } else {
+    EXPECT_EQ(Field(anomalies[0], "frame"), "");
+  }
 }
 
 TEST_F(LifelongE2eTest, UpsideDownIsSeenByTheAccelerometersAndRelearnedWithTheSameParameters) {
@@ -232,10 +251,12 @@ defect = "limp"
 )");
   const fs::path out = dir_ / "out";
   std::string text;
-  ASSERT_EQ(Run(Args(scenario, out, {"--max-anomalies", "1"}), &text), 0) << text;
+  ASSERT_EQ(Run(Args(scenario, out, {"--max-anomalies", "1", "--no-frames"}), &text), 0) << text;
   const auto anomalies = Events(out, "anomaly");
   ASSERT_EQ(anomalies.size(), 1u);
   EXPECT_EQ(Field(anomalies[0], "trigger"), "defect_set");
+  EXPECT_EQ(Field(anomalies[0], "frame"), "") << "--no-frames";
+  EXPECT_FALSE(fs::exists(out / "frames"));
   EXPECT_EQ(Field(Events(out, "assessed")[0], "body_changed"), "false");
   EXPECT_EQ(Field(Events(out, "relearn")[0], "how"), "same parameters");
   GaitDatabase db((out / "gaits.sqlite").string(), false);

@@ -66,5 +66,61 @@ TEST(Timeline, FilesAreAppendedAcrossRunsWithOneHeader) {
   fs::remove_all(dir);
 }
 
+// A LifeLog that keeps what it gets.
+class KeptLog final : public LifeLog {
+ public:
+  void Row(const TimelineRow& row) override { rows.push_back(row); }
+  void Event(const LifeEvent& event) override { events.push_back(event); }
+  std::vector<TimelineRow> rows;
+  std::vector<LifeEvent> events;
+};
+
+TEST(FramingLog, KeyMomentsGetAPictureNamedInTheirEvent) {
+  const fs::path dir = fs::temp_directory_path() / ("yamor_framing_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  KeptLog kept;
+  int taken = 0;
+  FramingLog log(kept, dir.string(), [&] { return "png" + std::to_string(++taken); });
+  log.Row({.time = 1, .state = "walking"});
+  log.Event({.time = 2, .kind = "start"});
+  log.Event({.time = 3, .kind = "anomaly", .fields = {{"trigger", JsonString("drop")}}});
+  log.Event({.time = 4, .kind = "relearned"});
+  log.Event({.time = 5, .kind = "anomaly"});
+  EXPECT_EQ(taken, 3) << "only anomaly, recalled and relearned are framed";
+  EXPECT_EQ(log.frames(), 3);
+  ASSERT_EQ(kept.rows.size(), 1u);
+  ASSERT_EQ(kept.events.size(), 4u);
+  EXPECT_TRUE(kept.events[0].fields.empty());
+  EXPECT_EQ(EventLine(kept.events[1]),
+            "{\"time\":3,\"kind\":\"anomaly\",\"trigger\":\"drop\",\"frame\":\"frames/anomaly-01.png\"}");
+  EXPECT_EQ(kept.events[2].fields.back().second, "\"frames/relearned-01.png\"");
+  EXPECT_EQ(kept.events[3].fields.back().second, "\"frames/anomaly-02.png\"");
+  EXPECT_EQ(Read(dir / "frames" / "anomaly-01.png"), "png1");
+  EXPECT_EQ(Read(dir / "frames" / "relearned-01.png"), "png2");
+  EXPECT_EQ(Read(dir / "frames" / "anomaly-02.png"), "png3");
+  fs::remove_all(dir);
+}
+
+TEST(FramingLog, AFrameThatCannotBeTakenChangesNothingElse) {
+  const fs::path dir = fs::temp_directory_path() / ("yamor_framing_fail_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  KeptLog kept;
+  FramingLog log(kept, dir.string(), []() -> std::string {
+    throw Error(StatusCode::kUnimplemented, "RenderFrame: a real robot");
+  });
+  log.Event({.time = 3, .kind = "anomaly", .fields = {{"trigger", JsonString("drop")}}});
+  log.Event({.time = 4, .kind = "recalled"});
+  EXPECT_EQ(log.failures(), 2);
+  EXPECT_EQ(log.frames(), 0);
+  ASSERT_EQ(kept.events.size(), 2u);
+  EXPECT_EQ(EventLine(kept.events[0]), "{\"time\":3,\"kind\":\"anomaly\",\"trigger\":\"drop\"}");
+  EXPECT_FALSE(fs::exists(dir / "frames"));
+  // Without a taker (--no-frames) events pass untouched.
+  FramingLog off(kept, dir.string(), {});
+  off.Event({.time = 5, .kind = "anomaly"});
+  EXPECT_TRUE(kept.events.back().fields.empty());
+  EXPECT_EQ(off.failures(), 0);
+}
+
 }  // namespace
 }  // namespace yamor::lifelong

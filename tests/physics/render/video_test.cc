@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 
@@ -94,7 +96,56 @@ TEST_F(VideoTest, FfmpegFailureIsReportedWithItsMessage) {
   }
 }
 
+Image RawFrame(int width, int height, int shade) {
+  Image image{.width = width, .height = height};
+  image.rgba.assign(static_cast<std::size_t>(width) * height * 4, 255);
+  for (std::size_t i = 0; i < image.rgba.size(); i += 4) image.rgba[i] = static_cast<uint8_t>(shade);
+  return image;
+}
+
+// Raw mode: RGBA images straight to ffmpeg (no PNG on the way).
+TEST_F(VideoTest, RawImagesMakeTheSameVideo) {
+  if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
+  const std::string path = (dir_ / "raw.mp4").string();
+  VideoWriter writer(path, VideoOptions{.frame_rate = 10, .raw_width = 64, .raw_height = 48});
+  for (int i = 0; i < 12; ++i) writer.AddImage(RawFrame(64, 48, i * 20));
+  std::string message;
+  try {
+    writer.AddImage(RawFrame(32, 48, 0));
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kInvalidArgument);
+    message = e.what();
+  }
+  EXPECT_EQ(message, "video frame 32x48 (6144 bytes) is not the video's 64x48 RGBA");
+  EXPECT_THROW(writer.AddFrame(Frame(64, 48, 0)), Error) << "PNG frames in raw mode";
+  const VideoResult result = writer.Finish();
+  EXPECT_TRUE(result.video);
+  EXPECT_EQ(result.frames, 12);
+  EXPECT_EQ(Shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                  "stream=nb_read_frames,width,height -of csv=p=0 " + path),
+            "64,48,12\n");
+}
+
+TEST_F(VideoTest, RawImagesWithoutFfmpegBecomeThePngSequence) {
+  const std::string path = (dir_ / "raw.mp4").string();
+  VideoWriter writer(path, VideoOptions{.frame_rate = 25, .ffmpeg = "/nonexistent/ffmpeg",
+                                        .raw_width = 8, .raw_height = 6});
+  for (int i = 0; i < 2; ++i) writer.AddImage(RawFrame(8, 6, 100 + i));
+  const VideoResult result = writer.Finish();
+  EXPECT_FALSE(result.video);
+  EXPECT_EQ(result.frames, 2);
+  std::ifstream in(dir_ / "raw-000001.png", std::ios::binary);
+  const std::vector<uint8_t> png((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_TRUE(DecodePng(png) == RawFrame(8, 6, 101));
+}
+
 TEST(VideoOptionsTest, BadRateOrPathIsRefused) {
+  EXPECT_THROW(VideoWriter("x.mp4", VideoOptions{.raw_width = 0, .raw_height = 5}), Error);
+  EXPECT_THROW(VideoWriter("x.mp4", VideoOptions{.raw_width = 5000, .raw_height = 5}), Error);
+  EXPECT_THROW(VideoWriter("x.mp4", VideoOptions{.ffmpeg = "/nonexistent/ffmpeg"})
+                   .AddImage(RawFrame(2, 2, 0)),
+               Error)
+      << "images need raw mode";
   EXPECT_THROW(VideoWriter("x.mp4", VideoOptions{.frame_rate = 0}), Error);
   EXPECT_THROW(VideoWriter("", VideoOptions{}), Error);
 }

@@ -183,6 +183,8 @@ class Evaluation:
     diverged: bool
     divergence: str
     wall_seconds: float
+    #: With ``frame_rate`` > 0: the frames of the evaluation (PNG), t = 0, 1/rate, ...
+    frames: List["Frame"] = field(default_factory=list)
 
 
 def _vector(v: pb.Vector3) -> Vector:
@@ -623,7 +625,11 @@ class Host:
                  motor_defects: Optional[Mapping[int, str]] = None,
                  module_defects: Iterable[int] = (), friction: Optional[float] = None,
                  slope: Optional[float] = None, slope_direction: Optional[float] = None,
-                 upside_down: bool = False, timeout: Optional[float] = None) -> Evaluation:
+                 upside_down: bool = False, frame_rate: float = 0.0, width: int = 320,
+                 height: int = 240, camera: str = "follow", distance: Optional[float] = None,
+                 elevation: Optional[float] = None, azimuth: Optional[float] = None,
+                 labels: bool = True, legend: bool = True,
+                 timeout: Optional[float] = None) -> Evaluation:
         """Stateless gait evaluation on the daemon's worker pool (Evaluate).
 
         ``params``: parameter values by DESIGN name ("amplitude.3",
@@ -633,6 +639,10 @@ class Host:
         "limp", "stuck" or "ok"; ``module_defects`` lists defective modules;
         ``friction``, ``slope`` and ``slope_direction`` change the ground
         (None keeps the world's); ``upside_down`` starts it turned over.
+        ``frame_rate`` > 0 films the evaluation (EvaluateRequest.frames): the
+        result's ``frames`` hold a PNG every 1/frame_rate simulated seconds of
+        it, warm-up included, ``width`` x ``height``, camera options as
+        :meth:`snapshot` (follow only); the deadline adds 0.2 s per frame.
         """
         if config_file is not None:
             config_xml = _read_text(config_file)
@@ -660,10 +670,18 @@ class Host:
             request.ground.slope_direction = slope_direction
         simulated = (warmup or 8.0) + (duration or 12.0)
         extra = simulated if math.isfinite(simulated) else 0.0
+        if frame_rate:
+            request.frames.CopyFrom(pb.EvaluationFrames(
+                camera=self._camera(camera, distance, elevation, azimuth, None, None, None, 0.0),
+                width=width, height=height, hide_labels=not labels, hide_legend=not legend,
+                frame_rate=frame_rate))
+            work = simulated * frame_rate * 0.2
+            extra += work if math.isfinite(work) else 0.0
         r = self._call("Evaluate", request, timeout, extra)
         return Evaluation(r.velocity, r.distance, _pose(r.final_pose),
                           [TrajectorySample(t.time, _vector(t.position)) for t in r.trajectory],
-                          r.diverged, r.divergence, r.wall_seconds)
+                          r.diverged, r.divergence, r.wall_seconds,
+                          [Frame(f.index, f.time, f.png) for f in r.frames])
 
     @staticmethod
     def _camera(camera: str, distance: Optional[float], elevation: Optional[float],

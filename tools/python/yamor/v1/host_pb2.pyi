@@ -127,9 +127,10 @@ class ElapsedTimeResponse(_message.Message):
     def __init__(self, seconds: _Optional[float] = ...) -> None: ...
 
 class EvaluateRequest(_message.Message):
-    __slots__ = ["config_xml", "duration", "ground", "module_defects", "morphology_xml", "motor_defects", "parameters", "seed", "time_step", "trajectory_period", "upside_down", "warmup", "world"]
+    __slots__ = ["config_xml", "duration", "frames", "ground", "module_defects", "morphology_xml", "motor_defects", "parameters", "seed", "time_step", "trajectory_period", "upside_down", "warmup", "world"]
     CONFIG_XML_FIELD_NUMBER: _ClassVar[int]
     DURATION_FIELD_NUMBER: _ClassVar[int]
+    FRAMES_FIELD_NUMBER: _ClassVar[int]
     GROUND_FIELD_NUMBER: _ClassVar[int]
     MODULE_DEFECTS_FIELD_NUMBER: _ClassVar[int]
     MORPHOLOGY_XML_FIELD_NUMBER: _ClassVar[int]
@@ -143,6 +144,7 @@ class EvaluateRequest(_message.Message):
     WORLD_FIELD_NUMBER: _ClassVar[int]
     config_xml: str
     duration: float
+    frames: EvaluationFrames
     ground: SetGroundRequest
     module_defects: _containers.RepeatedCompositeFieldContainer[SetModuleDefectRequest]
     morphology_xml: str
@@ -154,14 +156,15 @@ class EvaluateRequest(_message.Message):
     upside_down: bool
     warmup: float
     world: str
-    def __init__(self, config_xml: _Optional[str] = ..., world: _Optional[str] = ..., morphology_xml: _Optional[str] = ..., parameters: _Optional[_Iterable[_Union[ParameterValue, _Mapping]]] = ..., warmup: _Optional[float] = ..., duration: _Optional[float] = ..., seed: _Optional[int] = ..., trajectory_period: _Optional[float] = ..., time_step: _Optional[float] = ..., motor_defects: _Optional[_Iterable[_Union[SetMotorDefectRequest, _Mapping]]] = ..., module_defects: _Optional[_Iterable[_Union[SetModuleDefectRequest, _Mapping]]] = ..., ground: _Optional[_Union[SetGroundRequest, _Mapping]] = ..., upside_down: bool = ...) -> None: ...
+    def __init__(self, config_xml: _Optional[str] = ..., world: _Optional[str] = ..., morphology_xml: _Optional[str] = ..., parameters: _Optional[_Iterable[_Union[ParameterValue, _Mapping]]] = ..., warmup: _Optional[float] = ..., duration: _Optional[float] = ..., seed: _Optional[int] = ..., trajectory_period: _Optional[float] = ..., time_step: _Optional[float] = ..., motor_defects: _Optional[_Iterable[_Union[SetMotorDefectRequest, _Mapping]]] = ..., module_defects: _Optional[_Iterable[_Union[SetModuleDefectRequest, _Mapping]]] = ..., ground: _Optional[_Union[SetGroundRequest, _Mapping]] = ..., upside_down: bool = ..., frames: _Optional[_Union[EvaluationFrames, _Mapping]] = ...) -> None: ...
 
 class EvaluateResponse(_message.Message):
-    __slots__ = ["distance", "diverged", "divergence", "final_pose", "trajectory", "velocity", "wall_seconds"]
+    __slots__ = ["distance", "diverged", "divergence", "final_pose", "frames", "trajectory", "velocity", "wall_seconds"]
     DISTANCE_FIELD_NUMBER: _ClassVar[int]
     DIVERGED_FIELD_NUMBER: _ClassVar[int]
     DIVERGENCE_FIELD_NUMBER: _ClassVar[int]
     FINAL_POSE_FIELD_NUMBER: _ClassVar[int]
+    FRAMES_FIELD_NUMBER: _ClassVar[int]
     TRAJECTORY_FIELD_NUMBER: _ClassVar[int]
     VELOCITY_FIELD_NUMBER: _ClassVar[int]
     WALL_SECONDS_FIELD_NUMBER: _ClassVar[int]
@@ -169,10 +172,27 @@ class EvaluateResponse(_message.Message):
     diverged: bool
     divergence: str
     final_pose: Pose
+    frames: _containers.RepeatedCompositeFieldContainer[VideoFrame]
     trajectory: _containers.RepeatedCompositeFieldContainer[TrajectorySample]
     velocity: float
     wall_seconds: float
-    def __init__(self, velocity: _Optional[float] = ..., distance: _Optional[float] = ..., final_pose: _Optional[_Union[Pose, _Mapping]] = ..., trajectory: _Optional[_Iterable[_Union[TrajectorySample, _Mapping]]] = ..., diverged: bool = ..., divergence: _Optional[str] = ..., wall_seconds: _Optional[float] = ...) -> None: ...
+    def __init__(self, velocity: _Optional[float] = ..., distance: _Optional[float] = ..., final_pose: _Optional[_Union[Pose, _Mapping]] = ..., trajectory: _Optional[_Iterable[_Union[TrajectorySample, _Mapping]]] = ..., diverged: bool = ..., divergence: _Optional[str] = ..., wall_seconds: _Optional[float] = ..., frames: _Optional[_Iterable[_Union[VideoFrame, _Mapping]]] = ...) -> None: ...
+
+class EvaluationFrames(_message.Message):
+    __slots__ = ["camera", "frame_rate", "height", "hide_labels", "hide_legend", "width"]
+    CAMERA_FIELD_NUMBER: _ClassVar[int]
+    FRAME_RATE_FIELD_NUMBER: _ClassVar[int]
+    HEIGHT_FIELD_NUMBER: _ClassVar[int]
+    HIDE_LABELS_FIELD_NUMBER: _ClassVar[int]
+    HIDE_LEGEND_FIELD_NUMBER: _ClassVar[int]
+    WIDTH_FIELD_NUMBER: _ClassVar[int]
+    camera: Camera
+    frame_rate: float
+    height: int
+    hide_labels: bool
+    hide_legend: bool
+    width: int
+    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., hide_labels: bool = ..., hide_legend: bool = ..., frame_rate: _Optional[float] = ...) -> None: ...
 
 class FlushResponse(_message.Message):
     __slots__ = ["frames_sent"]
