@@ -63,6 +63,7 @@
 #include "cpg/network.h"
 #include "physics/morphology.h"
 #include "physics/world.h"
+#include "tools/bench/bench_robots.h"
 #include "tools/bench/naive_world.h"
 
 #ifndef YAMOR_SOURCE_DIR
@@ -72,6 +73,9 @@
 namespace {
 
 using yamor::bench::NaiveWorld;
+using yamor::bench::SnakeConfig;
+using yamor::bench::SnakeMorphology;
+using yamor::bench::Table61Gait;
 using yamor::cpg::RobotConfig;
 using yamor::physics::Morphology;
 using yamor::physics::StepMethod;
@@ -114,74 +118,6 @@ std::string StepName(double step) {
 const Morphology& QuadrupedMorphology() {
   static const Morphology m = Morphology::LoadFile(Root() + "/configs/worlds/quadruped.xml");
   return m;
-}
-
-// The random gaits of the sweep: thesis Table 6.1's seven free parameters
-// drawn uniformly inside their bounds (seeded), on the configured network.
-RobotConfig Table61Gait(const RobotConfig& base, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  constexpr double kPi = std::numbers::pi;
-  const double hip_amplitude = unit(rng) * kPi / 4;
-  const double knee_amplitude = unit(rng) * kPi / 2;
-  const double knee_offset = -unit(rng) * kPi / 2;
-  const double inside_out = unit(rng) * 2 * kPi;
-  double lag[4];
-  for (int i = 0; i < 3; ++i) lag[i] = unit(rng) * 2 * kPi;
-  lag[3] = std::remainder(-(lag[0] + lag[1] + lag[2]), 2 * kPi);  // closes the hip ring
-  RobotConfig config = base;
-  for (auto& m : config.modules) {
-    if (m.id < 4) m.amplitude = hip_amplitude;
-    if (m.id > 4) {
-      m.amplitude = knee_amplitude;
-      m.offset = knee_offset;
-    }
-  }
-  for (auto& c : config.couplings) {
-    if (c.from < 4 && c.to < 4) {
-      c.phase = c.to == (c.from + 1) % 4 ? lag[c.from] : -lag[c.to];
-    } else {
-      c.phase = c.from < 4 ? inside_out : -inside_out;  // hip -> knee, knee -> hip
-    }
-  }
-  return config;
-}
-
-// A snake of n modules as configs/worlds/snake.xml builds it: passive head 0,
-// module i's front (handle) screwed into the rear of module i-1.
-Morphology SnakeMorphology(int n) {
-  std::vector<yamor::physics::MorphologyModule> modules;
-  std::vector<yamor::physics::MorphologyConnection> connections;
-  for (int id = 0; id < n; ++id) {
-    modules.push_back({.id = id});
-    if (id > 0) {
-      connections.push_back({.from = id,
-                             .from_connector = yamor::physics::ConnectorId::kFront,
-                             .to = id - 1,
-                             .to_connector = yamor::physics::ConnectorId::kRear});
-    }
-  }
-  return Morphology::Build(0, std::move(modules), std::move(connections), Eigen::Vector3d::Zero(),
-                           "snake" + std::to_string(n));
-}
-
-// configs/robots/snake.xml generalised to n modules: head passive, chain
-// couplings +pi/2 rearwards and -pi/2 forwards, amplitude 0.6 rad, 0.6 Hz.
-RobotConfig SnakeConfig(int n) {
-  RobotConfig config;
-  config.master_id = 0;
-  for (int id = 0; id < n; ++id) {
-    const bool active = id > 0;
-    config.modules.push_back({.id = id,
-                              .amplitude = active ? 0.6 : 0.0,
-                              .speed = active ? 0.6 : 0.0});
-    if (id > 0) config.bluetooth_parent[id] = id - 1;
-  }
-  for (int id = 1; id < n; ++id) {
-    if (id + 1 < n) config.couplings.push_back({.from = id, .to = id + 1, .phase = std::numbers::pi / 2});
-    if (id > 1) config.couplings.push_back({.from = id, .to = id - 1, .phase = -std::numbers::pi / 2});
-  }
-  return config;
 }
 
 // ---------------------------------------------------------------- gait --
