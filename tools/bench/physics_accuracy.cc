@@ -333,7 +333,7 @@ Robot MakeRobot(const Settings& s) {
     robot.duration = s.duration.value_or(12.0);
     return robot;
   }
-  if (s.robot.rfind("snake", 0) == 0) {
+  if (s.robot.rfind("snake", 0) == 0 && s.robot.size() > 5) {
     const int n = std::atoi(s.robot.c_str() + 5);
     if (n < 2) throw Error(StatusCode::kInvalidArgument, "--robot: bad snake '" + s.robot + "'");
     Robot robot{.name = s.robot, .morphology = yamor::bench::SnakeMorphology(n)};
@@ -389,8 +389,10 @@ int Main(int argc, char** argv) {
     }
   }
 
-  std::printf("robot %s, %zu gait(s), distance over t = %g..%g s; reference: %s at %g ms%s\n",
-              robot.name.c_str(), robot.gaits.size(), robot.warmup,
+  std::printf("robot %s (%d bodies), %zu gait(s), distance over t = %g..%g s; reference: %s at "
+              "%g ms%s\n",
+              robot.name.c_str(), yamor::physics::World(robot.morphology).BodyCount(),
+              robot.gaits.size(), robot.warmup,
               robot.warmup + robot.duration, MethodName(s.reference.method).c_str(),
               s.reference.step * 1e3,
               s.reference.method == StepMethod::kExact

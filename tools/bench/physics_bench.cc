@@ -25,6 +25,8 @@
 // construction, configuration and the 20 s of simulation.
 //
 // Extra flags (after Google Benchmark's): --step=S (default: WorldOptions'),
+// --iterations=N and --sor=W (the iterative engine's solver; default:
+// WorldOptions'),
 // --sweep=S1,S2,... (default 0.00025,0.0005,0.001,0.002,0.004),
 // --sweep_gaits=K (random gaits besides the configured one, default 6),
 // --snakes=8,16,32,64, --snake_warmup=S (simulated seconds before timing),
@@ -96,6 +98,8 @@ constexpr std::uint64_t kPhaseSeed = 1;  // bridge::RobotOptions' default
 
 struct Settings {
   double step = WorldOptions().time_step;
+  int iterations = WorldOptions().iterations;          // of the iterative engine
+  double over_relaxation = WorldOptions().over_relaxation;
   std::vector<double> sweep = {0.00025, 0.0005, 0.001, 0.002, 0.004};
   int sweep_gaits = 6;
   std::vector<int> snakes = {8, 16, 32, 64};
@@ -107,6 +111,25 @@ struct Settings {
 };
 
 std::string Root() { return YAMOR_SOURCE_DIR; }
+
+// The iterative engine's solver settings (--iterations, --sor), set once in
+// main() before any benchmark runs.
+WorldOptions& IterativeTuning() {
+  static WorldOptions options;
+  return options;
+}
+
+// Options of our world for `method` at `step` (the iterative engine tuned).
+WorldOptions OursOptions(double step, StepMethod method) {
+  WorldOptions options;
+  options.time_step = step;
+  options.step_method = method;
+  if (method != StepMethod::kExact) {
+    options.iterations = IterativeTuning().iterations;
+    options.over_relaxation = IterativeTuning().over_relaxation;
+  }
+  return options;
+}
 
 // "1000us", "250us": step in whole microseconds for benchmark names.
 std::string StepName(double step) {
@@ -206,8 +229,7 @@ Evaluation EvaluateBridge(const Morphology& morphology, const RobotConfig& confi
   const auto start = Clock::now();
   const double cpu_start = ThreadCpuSeconds();
   yamor::bridge::RobotOptions options;
-  options.world.time_step = step;
-  options.world.step_method = method;
+  options.world = OursOptions(step, method);
   options.phase_seed = kPhaseSeed;
   yamor::bridge::Robot robot(morphology, options);
   std::vector<yamor::snp::Frame> out;
@@ -327,10 +349,7 @@ void SnakeStep(benchmark::State& state, int n, const WorldOptions& options, doub
 }
 
 void SnakeOurs(benchmark::State& state, int n, double step, double warmup, StepMethod method) {
-  WorldOptions options;
-  options.time_step = step;
-  options.step_method = method;
-  SnakeStep<World>(state, n, options, warmup);
+  SnakeStep<World>(state, n, OursOptions(step, method), warmup);
   state.counters["joints"] = n;  // one servo hinge per module
 }
 
@@ -433,6 +452,10 @@ Settings ParseSettings(int argc, char** argv) {
     };
     if (auto v = value("--step")) {
       s.step = ParseList(*v, "--step").at(0);
+    } else if (auto v = value("--iterations")) {
+      s.iterations = static_cast<int>(ParseList(*v, "--iterations").at(0));
+    } else if (auto v = value("--sor")) {
+      s.over_relaxation = ParseList(*v, "--sor").at(0);
     } else if (auto v = value("--sweep")) {
       s.sweep = ParseList(*v, "--sweep");
     } else if (auto v = value("--snakes")) {
@@ -453,7 +476,7 @@ Settings ParseSettings(int argc, char** argv) {
     } else {
       throw yamor::Error(yamor::StatusCode::kInvalidArgument,
                          "unknown argument '" + std::string(arg) +
-                             "' (extra flags: --step=S --sweep=S,... --sweep_gaits=K "
+                             "' (extra flags: --step=S --iterations=N --sor=W --sweep=S,... --sweep_gaits=K "
                              "--snakes=N,... --snake_warmup=S --gait=FILE --export=ROBOT "
                              "--export_dir=DIR --export_duration=S)");
     }
@@ -475,6 +498,12 @@ int main(int argc, char** argv) {
       return 0;
     }
     gait = yamor::cpg::LoadConfigFile(settings.gait);
+    IterativeTuning().iterations = settings.iterations;
+    IterativeTuning().over_relaxation = settings.over_relaxation;
+    IterativeTuning().step_method = StepMethod::kIterative;
+    IterativeTuning().time_step = settings.step;
+    // Refuses bad values before any benchmark starts.
+    (void)World(QuadrupedMorphology(), IterativeTuning());
   } catch (const yamor::Error& error) {
     std::fprintf(stderr, "physics_bench: %s\n", error.what());
     return 2;
