@@ -43,7 +43,7 @@ struct WorldOptions {
   StepMethod step_method = StepMethod::kExact;  ///< Solver.
   int iterations = 20;             ///< Iterations per step of the iterative solver, [1, 10000].
   double over_relaxation = 1.3;    ///< SOR factor ω of the iterative solver, in (0, 2).
-  int auto_max_exact_bodies = 12;  ///< kAuto: most bodies stepped by kExact, >= 0.
+  int auto_max_exact_bodies = 8;   ///< kAuto: most bodies stepped by kExact, >= 0.
   double gravity = 9.81;           ///< Magnitude of gravity, m/s².
   double ground_friction = 0.6;    ///< Coulomb friction module/ground.
   double module_friction = 0.5;    ///< Coulomb friction module/module.

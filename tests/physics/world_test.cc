@@ -400,8 +400,11 @@ TEST(WorldTest, OverRelaxationAndIterationsReachTheSolver) {
 TEST(WorldTest, AutoPicksTheExactSolverForSmallRobotsAndIterativeForLargeOnes) {
   WorldOptions options;
   options.step_method = StepMethod::kAuto;
-  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kExact);
+  // Defaults: up to 8 bodies exact (the wheel has 6, the tripod 8), the
+  // quadruped (10) and anything larger iterative.
   EXPECT_EQ(World(Load("wheel"), options).ActiveStepMethod(), StepMethod::kExact);
+  EXPECT_EQ(World(Load("tripod"), options).ActiveStepMethod(), StepMethod::kExact);
+  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kIterative);
   World big(Chain(32), options);
   EXPECT_EQ(big.BodyCount(), 33);
   EXPECT_EQ(big.ActiveStepMethod(), StepMethod::kIterative);
