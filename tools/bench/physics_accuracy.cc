@@ -313,7 +313,7 @@ Settings ParseSettings(int argc, char** argv) {
                   "unknown argument '" + std::string(arg) +
                       "' (flags: --robot= --method= --step= --iterations= --sor= --gaits= "
                       "--reference_method= --reference_step= --reference_iterations= "
-                      "--warmup= --duration= --cache= --compare_exact --csv)");
+                      "--warmup= --duration= --cache= --compare_exact --csv --no_reference)");
     }
   }
   return s;
@@ -369,6 +369,24 @@ int Main(int argc, char** argv) {
     cache.Store(key, r);
     return r;
   };
+
+  // Refuses bad solver settings (naming them) before any run.
+  auto check = [&](const Config& c) {
+    WorldOptions options;
+    options.time_step = c.step;
+    options.step_method = c.method;
+    options.iterations = c.iterations;
+    options.over_relaxation = c.sor;
+    (void)yamor::physics::World(robot.morphology, options);
+  };
+  if (!s.no_reference) check(s.reference);
+  for (double step : s.steps) {
+    for (StepMethod m : s.methods) {
+      for (int n : s.iterations) {
+        for (double w : s.sors) check({.method = m, .step = step, .iterations = n, .sor = w});
+      }
+    }
+  }
 
   std::vector<Run> reference;
   for (size_t g = 0; g < robot.gaits.size(); ++g) {
