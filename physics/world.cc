@@ -71,9 +71,24 @@ void CheckOptions(const WorldOptions& o) {
     }
   };
   positive(o.time_step, "time_step");
+  if (o.step_method != StepMethod::kExact && o.step_method != StepMethod::kIterative &&
+      o.step_method != StepMethod::kAuto) {
+    throw Error(StatusCode::kInvalidArgument,
+                "step_method " + std::to_string(static_cast<int>(o.step_method)) +
+                    " is not kExact, kIterative or kAuto");
+  }
   if (o.iterations < 1 || o.iterations > 10000) {
     throw Error(StatusCode::kInvalidArgument,
                 "iterations must be in [1, 10000], got " + std::to_string(o.iterations));
+  }
+  CheckFinite(o.over_relaxation, "over_relaxation");
+  if (o.over_relaxation <= 0 || o.over_relaxation >= 2) {
+    throw Error(StatusCode::kInvalidArgument,
+                "over_relaxation must be in (0, 2), got " + std::to_string(o.over_relaxation));
+  }
+  if (o.auto_max_exact_bodies < 0) {
+    throw Error(StatusCode::kInvalidArgument, "auto_max_exact_bodies must be >= 0, got " +
+                                                  std::to_string(o.auto_max_exact_bodies));
   }
   if (o.time_step > 0.05) {
     throw Error(StatusCode::kOutOfRange,
@@ -134,6 +149,16 @@ double SupportHeight(const std::vector<StaticBox>& boxes, double x, double y) {
 // Guards ODE's process-wide random generator used by dWorldQuickStep.
 std::mutex quick_step_mutex;
 
+// The starting state of a world's share of ODE's generator (a 32-bit linear
+// congruential generator) for a seed: SplitMix64 of the seed, low 32 bits.
+unsigned long OdeRandomState(std::uint64_t seed) {
+  std::uint64_t z = seed + 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return static_cast<unsigned long>(z & 0xffffffffULL);
+}
+
 Eigen::Vector3d GravityVector(double g, double slope, double direction) {
   return g * Eigen::Vector3d(std::sin(slope) * std::cos(direction),
                              std::sin(slope) * std::sin(direction), -std::cos(slope));
@@ -192,6 +217,7 @@ struct World::Impl {
   DivergenceInfo divergence;
   bool poisoned = false;            // ODE threw during a step: never touch its objects again
   unsigned long random_state = 0;   // this world's share of ODE's generator (kIterative)
+  StepMethod active_method = StepMethod::kExact;  // step_method, kAuto resolved at Build()
   bool skip_pre_step_check = false;  // test hook: let a bad state reach ODE
 
   Impl(Morphology m, WorldOptions o) : morphology(std::move(m)), options(std::move(o)) {
@@ -300,7 +326,7 @@ struct World::Impl {
     ground_friction = options.ground_friction;
     gravity = GravityVector(options.gravity, options.slope, options.slope_direction);
     steps = 0;
-    random_state = 0;
+    random_state = OdeRandomState(options.seed);
     divergence.diverged = false;
     divergence.step = 0;
     divergence.module_id = -1;
@@ -376,6 +402,7 @@ struct World::Impl {
     dWorldSetGravity(world, gravity.x(), gravity.y(), gravity.z());
     dWorldSetERP(world, kJointErp);
     dWorldSetCFM(world, kJointCfm);
+    dWorldSetQuickStepW(world, options.over_relaxation);
     dWorldSetAutoDisableFlag(world, 0);
     dWorldSetQuickStepNumIterations(world, options.iterations);
     space = dSimpleSpaceCreate(nullptr);
@@ -490,6 +517,12 @@ struct World::Impl {
       dJointSetHingeParam(m.hinge, dParamHiStop,
                           std::min(kPi, module::kServoLimit - m.hinge_offset));
       dJointSetHingeParam(m.hinge, dParamFMax, 0);
+    }
+    active_method = options.step_method;
+    if (active_method == StepMethod::kAuto) {
+      active_method = static_cast<int>(groups.size()) <= options.auto_max_exact_bodies
+                          ? StepMethod::kExact
+                          : StepMethod::kIterative;
     }
     RecordSensorVelocities();
   }
@@ -627,7 +660,7 @@ struct World::Impl {
     RecordSensorVelocities();
     try {
       dSpaceCollide(space, this, &NearCallback);
-      if (options.step_method == StepMethod::kExact) {
+      if (active_method == StepMethod::kExact) {
         dWorldStep(world, options.time_step);
       } else {
         std::lock_guard<std::mutex> lock(quick_step_mutex);
@@ -922,6 +955,7 @@ Morphology World::CurrentMorphology() const {
 const WorldOptions& World::options() const { return impl_->options; }
 
 const std::vector<StaticBox>& World::StaticBoxes() const { return impl_->morphology.boxes(); }
+StepMethod World::ActiveStepMethod() const { return impl_->active_method; }
 
 void World::Step() { impl_->Step(); }
 

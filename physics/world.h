@@ -22,25 +22,34 @@ enum class StepMethod {
   /// dWorldStep: exact (Dantzig LCP), deterministic; cost grows ~cubically
   /// with the number of constraint rows (contacts + joints).
   kExact,
-  /// dWorldQuickStep: iterative, roughly linear cost, approximate. ODE draws
-  /// its constraint order from one process-wide random generator, so these
-  /// steps run one at a time in the process with each world's own generator
-  /// state swapped in (deterministic, but serialised across threads).
+  /// dWorldQuickStep: iterative (projected Gauss-Seidel with over-relaxation,
+  /// WorldOptions::iterations sweeps), cost roughly linear in the rows,
+  /// approximate. ODE draws its constraint order from one process-wide random
+  /// generator, so these steps run one at a time in the process with each
+  /// world's own generator state (seeded from WorldOptions::seed) swapped in:
+  /// deterministic for a seed, but serialised across threads.
   kIterative,
+  /// Chooses by robot size whenever the world is built (construction, Reset,
+  /// Connect, Disconnect): kExact while the world has at most
+  /// WorldOptions::auto_max_exact_bodies bodies, kIterative above
+  /// (docs/benchmarks.md, "Faster worlds", for the thresholds).
+  kAuto,
 };
 
 /// Settings of a world (defaults documented in docs/module.md).
 /// Thread-safety: plain value.
 struct WorldOptions {
   double time_step = 0.002;        ///< Fixed step, s (see docs/benchmarks.md for why 2 ms).
-  StepMethod step_method = StepMethod::kExact;  ///< Solver.
-  int iterations = 20;             ///< Iterations per step for kIterative.
+  StepMethod step_method = StepMethod::kAuto;  ///< Solver (docs/benchmarks.md, "Faster worlds").
+  int iterations = 35;             ///< Iterations per step of the iterative solver, [1, 10000].
+  double over_relaxation = 1.3;    ///< SOR factor ω of the iterative solver, in (0, 2).
+  int auto_max_exact_bodies = 8;   ///< kAuto: most bodies stepped by kExact, >= 0.
   double gravity = 9.81;           ///< Magnitude of gravity, m/s².
   double ground_friction = 0.6;    ///< Coulomb friction module/ground.
   double module_friction = 0.5;    ///< Coulomb friction module/module.
   double slope = 0.0;              ///< Ground slope, rad, in [0, π/2).
   double slope_direction = 0.0;    ///< Azimuth of the downhill direction, rad.
-  std::uint64_t seed = 0;          ///< Seed of every random source (sensor noise).
+  std::uint64_t seed = 0;          ///< Seed of every random source (sensor noise, iterative order).
   double contact_stiffness = 2e5;  ///< Contact spring, N/m (→ ERP/CFM per step).
   double contact_damping = 200;    ///< Contact damper, N·s/m.
   double drop_gap = 1e-4;          ///< Height of the lowest point above the ground at start, m.
@@ -110,6 +119,9 @@ class World {
   const WorldOptions& options() const;
   /// The static boxes of the world (the morphology's), in declaration order.
   const std::vector<StaticBox>& StaticBoxes() const;
+  /// The solver stepping the world now: options().step_method with kAuto
+  /// resolved for the robot as it is (never kAuto).
+  StepMethod ActiveStepMethod() const;
 
   /// Advances the world by one fixed step. Throws kFailedPrecondition when the
   /// world is diverged; a step that diverges returns normally with Diverged() set.

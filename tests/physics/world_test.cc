@@ -231,6 +231,10 @@ TEST(WorldTest, StartAnglesAreTheInitialPoseAndSetPointAndResetRestoresThem) {
 
 TEST(WorldTest, SameSeedGivesBitIdenticalWorlds) {
   WorldOptions options;
+  // The exact solver, whose motion does not depend on the seed (the
+  // iterative one draws its constraint order from it too; see
+  // IterativeOrderFollowsTheSeedAndReplays).
+  options.step_method = StepMethod::kExact;
   options.seed = 99;
   World a(Load("quadruped"), options);
   World b(Load("quadruped"), options);
@@ -297,9 +301,151 @@ TEST(WorldTest, IterativeStepsAreDeterministicAcrossThreads) {
   reference.Reset();
   ExpectSameBits(QuadrupedTrace(reference, 800), expected);
   // And it is a different solver from the exact one.
-  World exact(Load("quadruped"));
+  WorldOptions exact_options;
+  exact_options.step_method = StepMethod::kExact;
+  World exact(Load("quadruped"), exact_options);
   const std::vector<double> other = QuadrupedTrace(exact, 800);
   EXPECT_NE(std::memcmp(other.data(), expected.data(), other.size() * sizeof(double)), 0);
+}
+
+// A chain of n modules like configs/worlds/snake.xml (n + 1 bodies).
+Morphology Chain(int n) {
+  std::vector<MorphologyModule> modules;
+  std::vector<MorphologyConnection> connections;
+  for (int id = 0; id < n; ++id) {
+    modules.push_back({.id = id});
+    if (id > 0) {
+      connections.push_back({.from = id,
+                             .from_connector = ConnectorId::kFront,
+                             .to = id - 1,
+                             .to_connector = ConnectorId::kRear});
+    }
+  }
+  return Morphology::Build(0, std::move(modules), std::move(connections),
+                           Eigen::Vector3d::Zero(), "chain" + std::to_string(n));
+}
+
+TEST(WorldTest, IterativeSolverOptionsAreValidatedNamingTheValue) {
+  auto rejected = [](const WorldOptions& options, const std::string& name) {
+    std::string message;
+    EXPECT_EQ(CodeOf([&] { World(Load("snake"), options); }, &message),
+              StatusCode::kInvalidArgument)
+        << name;
+    EXPECT_THAT(message, HasSubstr(name));
+  };
+  for (double w : {0.0, -0.5, 2.0, 2.5, std::nan(""), HUGE_VAL}) {
+    WorldOptions options;
+    options.over_relaxation = w;
+    rejected(options, "over_relaxation");
+  }
+  for (int n : {0, -3, 10001}) {
+    WorldOptions options;
+    options.iterations = n;
+    rejected(options, "iterations");
+  }
+  WorldOptions options;
+  options.auto_max_exact_bodies = -1;
+  rejected(options, "auto_max_exact_bodies");
+  options = WorldOptions();
+  options.step_method = static_cast<StepMethod>(7);
+  rejected(options, "step_method");
+  // The edges of the valid ranges are accepted.
+  options = WorldOptions();
+  options.step_method = StepMethod::kIterative;
+  options.over_relaxation = 1.99;
+  options.iterations = 1;
+  options.auto_max_exact_bodies = 0;
+  EXPECT_NO_THROW(World(Load("snake"), options));
+}
+
+TEST(WorldTest, IterativeOrderFollowsTheSeedAndReplays) {
+  WorldOptions options;
+  options.step_method = StepMethod::kIterative;
+  options.seed = 5;
+  World a(Load("quadruped"), options);
+  World b(Load("quadruped"), options);
+  const std::vector<double> ta = QuadrupedTrace(a, 600);
+  ExpectSameBits(QuadrupedTrace(b, 600), ta);
+  a.Reset();
+  ExpectSameBits(QuadrupedTrace(a, 600), ta);
+  // Another seed draws another constraint order: the motion itself changes
+  // (not only the sensor noise), slightly.
+  options.seed = 6;
+  World c(Load("quadruped"), options);
+  const std::vector<double> tc = QuadrupedTrace(c, 600);
+  const size_t stride = ta.size() / 600;
+  double largest = 0;
+  for (size_t k = 0; k < ta.size(); k += stride) largest = std::max(largest, std::fabs(ta[k] - tc[k]));
+  EXPECT_GT(largest, 0.0);
+  EXPECT_LT(largest, 0.01);  // m: the same gait, not another robot
+}
+
+TEST(WorldTest, OverRelaxationAndIterationsReachTheSolver) {
+  WorldOptions options;
+  options.step_method = StepMethod::kIterative;
+  World reference(Load("quadruped"), options);
+  const std::vector<double> expected = QuadrupedTrace(reference, 300);
+  options.over_relaxation = 1.0;
+  World sor(Load("quadruped"), options);
+  EXPECT_NE(QuadrupedTrace(sor, 300), expected);
+  options = WorldOptions();
+  options.step_method = StepMethod::kIterative;
+  options.iterations = 5;
+  World few(Load("quadruped"), options);
+  EXPECT_NE(QuadrupedTrace(few, 300), expected);
+  // The exact solver ignores both.
+  WorldOptions exact;
+  exact.step_method = StepMethod::kExact;
+  World e1(Load("quadruped"), exact);
+  exact.over_relaxation = 1.0;
+  exact.iterations = 5;
+  World e2(Load("quadruped"), exact);
+  ExpectSameBits(QuadrupedTrace(e2, 300), QuadrupedTrace(e1, 300));
+}
+
+TEST(WorldTest, AutoPicksTheExactSolverForSmallRobotsAndIterativeForLargeOnes) {
+  WorldOptions options;
+  options.step_method = StepMethod::kAuto;
+  // Defaults: up to 8 bodies exact (the wheel has 6, the tripod 8), the
+  // quadruped (10) and anything larger iterative.
+  EXPECT_EQ(World(Load("wheel"), options).ActiveStepMethod(), StepMethod::kExact);
+  EXPECT_EQ(World(Load("tripod"), options).ActiveStepMethod(), StepMethod::kExact);
+  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kIterative);
+  World big(Chain(32), options);
+  EXPECT_EQ(big.BodyCount(), 33);
+  EXPECT_EQ(big.ActiveStepMethod(), StepMethod::kIterative);
+  // The threshold is the body count, inclusive.
+  options.auto_max_exact_bodies = 10;
+  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kExact);
+  options.auto_max_exact_bodies = 9;
+  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kIterative);
+  // Explicit choices are kept whatever the size.
+  options.step_method = StepMethod::kExact;
+  EXPECT_EQ(World(Chain(32), options).ActiveStepMethod(), StepMethod::kExact);
+  options.step_method = StepMethod::kIterative;
+  EXPECT_EQ(World(Load("wheel"), options).ActiveStepMethod(), StepMethod::kIterative);
+}
+
+TEST(WorldTest, AutoChoiceStepsLikeTheChosenSolverAndFollowsReconfiguration) {
+  WorldOptions options;
+  options.step_method = StepMethod::kAuto;
+  options.auto_max_exact_bodies = 9;  // the quadruped (10 bodies) is "large"
+  World automatic(Load("quadruped"), options);
+  ASSERT_EQ(automatic.ActiveStepMethod(), StepMethod::kIterative);
+  options.step_method = StepMethod::kIterative;
+  World iterative(Load("quadruped"), options);
+  ExpectSameBits(QuadrupedTrace(automatic, 300), QuadrupedTrace(iterative, 300));
+  // Putting a knee away leaves 9 bodies: the rebuilt world steps exactly.
+  automatic.Disconnect(8);
+  EXPECT_EQ(automatic.BodyCount(), 9);
+  EXPECT_EQ(automatic.ActiveStepMethod(), StepMethod::kExact);
+  automatic.Step(100);
+  EXPECT_FALSE(automatic.Diverged());
+  // Reset restores the initial robot and with it the iterative choice.
+  automatic.Reset();
+  EXPECT_EQ(automatic.ActiveStepMethod(), StepMethod::kIterative);
+  iterative.Reset();
+  ExpectSameBits(QuadrupedTrace(automatic, 300), QuadrupedTrace(iterative, 300));
 }
 
 TEST(WorldTest, AccelerometerAtRestReadsGravityAndFlipsUpsideDown) {

@@ -25,6 +25,8 @@
 // construction, configuration and the 20 s of simulation.
 //
 // Extra flags (after Google Benchmark's): --step=S (default: WorldOptions'),
+// --iterations=N and --sor=W (the iterative engine's solver; default:
+// WorldOptions'),
 // --sweep=S1,S2,... (default 0.00025,0.0005,0.001,0.002,0.004),
 // --sweep_gaits=K (random gaits besides the configured one, default 6),
 // --snakes=8,16,32,64, --snake_warmup=S (simulated seconds before timing),
@@ -63,6 +65,7 @@
 #include "cpg/network.h"
 #include "physics/morphology.h"
 #include "physics/world.h"
+#include "tools/bench/bench_robots.h"
 #include "tools/bench/naive_world.h"
 
 #ifndef YAMOR_SOURCE_DIR
@@ -72,6 +75,9 @@
 namespace {
 
 using yamor::bench::NaiveWorld;
+using yamor::bench::SnakeConfig;
+using yamor::bench::SnakeMorphology;
+using yamor::bench::Table61Gait;
 using yamor::cpg::RobotConfig;
 using yamor::physics::Morphology;
 using yamor::physics::StepMethod;
@@ -92,6 +98,8 @@ constexpr std::uint64_t kPhaseSeed = 1;  // bridge::RobotOptions' default
 
 struct Settings {
   double step = WorldOptions().time_step;
+  int iterations = WorldOptions().iterations;          // of the iterative engine
+  double over_relaxation = WorldOptions().over_relaxation;
   std::vector<double> sweep = {0.00025, 0.0005, 0.001, 0.002, 0.004};
   int sweep_gaits = 6;
   std::vector<int> snakes = {8, 16, 32, 64};
@@ -104,6 +112,25 @@ struct Settings {
 
 std::string Root() { return YAMOR_SOURCE_DIR; }
 
+// The iterative engine's solver settings (--iterations, --sor), set once in
+// main() before any benchmark runs.
+WorldOptions& IterativeTuning() {
+  static WorldOptions options;
+  return options;
+}
+
+// Options of our world for `method` at `step` (the iterative engine tuned).
+WorldOptions OursOptions(double step, StepMethod method) {
+  WorldOptions options;
+  options.time_step = step;
+  options.step_method = method;
+  if (method != StepMethod::kExact) {
+    options.iterations = IterativeTuning().iterations;
+    options.over_relaxation = IterativeTuning().over_relaxation;
+  }
+  return options;
+}
+
 // "1000us", "250us": step in whole microseconds for benchmark names.
 std::string StepName(double step) {
   return std::to_string(static_cast<long>(std::lround(step * 1e6))) + "us";
@@ -114,74 +141,6 @@ std::string StepName(double step) {
 const Morphology& QuadrupedMorphology() {
   static const Morphology m = Morphology::LoadFile(Root() + "/configs/worlds/quadruped.xml");
   return m;
-}
-
-// The random gaits of the sweep: thesis Table 6.1's seven free parameters
-// drawn uniformly inside their bounds (seeded), on the configured network.
-RobotConfig Table61Gait(const RobotConfig& base, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  constexpr double kPi = std::numbers::pi;
-  const double hip_amplitude = unit(rng) * kPi / 4;
-  const double knee_amplitude = unit(rng) * kPi / 2;
-  const double knee_offset = -unit(rng) * kPi / 2;
-  const double inside_out = unit(rng) * 2 * kPi;
-  double lag[4];
-  for (int i = 0; i < 3; ++i) lag[i] = unit(rng) * 2 * kPi;
-  lag[3] = std::remainder(-(lag[0] + lag[1] + lag[2]), 2 * kPi);  // closes the hip ring
-  RobotConfig config = base;
-  for (auto& m : config.modules) {
-    if (m.id < 4) m.amplitude = hip_amplitude;
-    if (m.id > 4) {
-      m.amplitude = knee_amplitude;
-      m.offset = knee_offset;
-    }
-  }
-  for (auto& c : config.couplings) {
-    if (c.from < 4 && c.to < 4) {
-      c.phase = c.to == (c.from + 1) % 4 ? lag[c.from] : -lag[c.to];
-    } else {
-      c.phase = c.from < 4 ? inside_out : -inside_out;  // hip -> knee, knee -> hip
-    }
-  }
-  return config;
-}
-
-// A snake of n modules as configs/worlds/snake.xml builds it: passive head 0,
-// module i's front (handle) screwed into the rear of module i-1.
-Morphology SnakeMorphology(int n) {
-  std::vector<yamor::physics::MorphologyModule> modules;
-  std::vector<yamor::physics::MorphologyConnection> connections;
-  for (int id = 0; id < n; ++id) {
-    modules.push_back({.id = id});
-    if (id > 0) {
-      connections.push_back({.from = id,
-                             .from_connector = yamor::physics::ConnectorId::kFront,
-                             .to = id - 1,
-                             .to_connector = yamor::physics::ConnectorId::kRear});
-    }
-  }
-  return Morphology::Build(0, std::move(modules), std::move(connections), Eigen::Vector3d::Zero(),
-                           "snake" + std::to_string(n));
-}
-
-// configs/robots/snake.xml generalised to n modules: head passive, chain
-// couplings +pi/2 rearwards and -pi/2 forwards, amplitude 0.6 rad, 0.6 Hz.
-RobotConfig SnakeConfig(int n) {
-  RobotConfig config;
-  config.master_id = 0;
-  for (int id = 0; id < n; ++id) {
-    const bool active = id > 0;
-    config.modules.push_back({.id = id,
-                              .amplitude = active ? 0.6 : 0.0,
-                              .speed = active ? 0.6 : 0.0});
-    if (id > 0) config.bluetooth_parent[id] = id - 1;
-  }
-  for (int id = 1; id < n; ++id) {
-    if (id + 1 < n) config.couplings.push_back({.from = id, .to = id + 1, .phase = std::numbers::pi / 2});
-    if (id > 1) config.couplings.push_back({.from = id, .to = id - 1, .phase = -std::numbers::pi / 2});
-  }
-  return config;
 }
 
 // ---------------------------------------------------------------- gait --
@@ -270,8 +229,7 @@ Evaluation EvaluateBridge(const Morphology& morphology, const RobotConfig& confi
   const auto start = Clock::now();
   const double cpu_start = ThreadCpuSeconds();
   yamor::bridge::RobotOptions options;
-  options.world.time_step = step;
-  options.world.step_method = method;
+  options.world = OursOptions(step, method);
   options.phase_seed = kPhaseSeed;
   yamor::bridge::Robot robot(morphology, options);
   std::vector<yamor::snp::Frame> out;
@@ -391,10 +349,7 @@ void SnakeStep(benchmark::State& state, int n, const WorldOptions& options, doub
 }
 
 void SnakeOurs(benchmark::State& state, int n, double step, double warmup, StepMethod method) {
-  WorldOptions options;
-  options.time_step = step;
-  options.step_method = method;
-  SnakeStep<World>(state, n, options, warmup);
+  SnakeStep<World>(state, n, OursOptions(step, method), warmup);
   state.counters["joints"] = n;  // one servo hinge per module
 }
 
@@ -497,6 +452,10 @@ Settings ParseSettings(int argc, char** argv) {
     };
     if (auto v = value("--step")) {
       s.step = ParseList(*v, "--step").at(0);
+    } else if (auto v = value("--iterations")) {
+      s.iterations = static_cast<int>(ParseList(*v, "--iterations").at(0));
+    } else if (auto v = value("--sor")) {
+      s.over_relaxation = ParseList(*v, "--sor").at(0);
     } else if (auto v = value("--sweep")) {
       s.sweep = ParseList(*v, "--sweep");
     } else if (auto v = value("--snakes")) {
@@ -517,7 +476,7 @@ Settings ParseSettings(int argc, char** argv) {
     } else {
       throw yamor::Error(yamor::StatusCode::kInvalidArgument,
                          "unknown argument '" + std::string(arg) +
-                             "' (extra flags: --step=S --sweep=S,... --sweep_gaits=K "
+                             "' (extra flags: --step=S --iterations=N --sor=W --sweep=S,... --sweep_gaits=K "
                              "--snakes=N,... --snake_warmup=S --gait=FILE --export=ROBOT "
                              "--export_dir=DIR --export_duration=S)");
     }
@@ -539,6 +498,12 @@ int main(int argc, char** argv) {
       return 0;
     }
     gait = yamor::cpg::LoadConfigFile(settings.gait);
+    IterativeTuning().iterations = settings.iterations;
+    IterativeTuning().over_relaxation = settings.over_relaxation;
+    IterativeTuning().step_method = StepMethod::kIterative;
+    IterativeTuning().time_step = settings.step;
+    // Refuses bad values before any benchmark starts.
+    (void)World(QuadrupedMorphology(), IterativeTuning());
   } catch (const yamor::Error& error) {
     std::fprintf(stderr, "physics_bench: %s\n", error.what());
     return 2;

@@ -9,7 +9,7 @@
 # Last, tools/bench/physics_compare.py prints the simulation comparison with
 # MuJoCo (when the venv has mujoco).
 set -euo pipefail
-plain_programs=" host_bench pool_bench serial_bench render_bench tracker_bench "
+plain_programs=" host_bench pool_bench serial_bench render_bench tracker_bench physics_accuracy "
 if [ $# -lt 1 ]; then echo "usage: $0 BUILD_DIR [extra benchmark flags]" >&2; exit 2; fi
 build="$1"; shift
 root="$(cd "$(dirname "$0")/../.." && pwd)"
