@@ -236,6 +236,30 @@ TEST(DriverSimTest, GetSceneCarriesRealIdsAndFramesComeFromIt) {
   }
 }
 
+TEST(DriverSimTest, ASleepOverlappingAResetOwesOnlyTheRestOfItsTime) {
+  // Issue 17, found by the soak: a Sleep kept its absolute target time, so
+  // a reset by another caller made a short Sleep step the whole lost
+  // timeline again (Sleeps of 0.3 s ran into 30-s deadlines).
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  driver.OpenSimulation(Quadruped());
+  driver.ConnectRobot(0.0, false, nullptr);  // a walking robot steps fastest
+  driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
+  driver.Sleep(1.0, false, nullptr);
+  std::atomic<double> ended{-1.0};
+  std::thread sleeper([&] { ended = driver.Sleep(3.0, false, nullptr); });
+  while (driver.ElapsedTime() < 1.5 && ended.load() < 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_LT(ended.load(), 0.0) << "the Sleep ended before the reset";
+  driver.ResetSimulation();
+  sleeper.join();
+  // It had stepped at least 0.5 s before the reset, so at most 2.5 s are owed
+  // on the new clock; the old target made it step to t = 4.
+  EXPECT_GT(ended.load(), 0.0);
+  EXPECT_LE(ended.load(), 2.5 + 1e-6);
+  EXPECT_NEAR(driver.ElapsedTime(), ended.load(), 1e-9);
+}
+
 TEST(DriverSimTest, FramesOfManyThreadsShareABoundedNumberOfRenderers) {
   // Issue 17, found by the soak: a renderer (an OpenGL context, tens of MB)
   // per gRPC thread took yamord past 800 MB under 64 RenderFrame clients.
