@@ -177,6 +177,7 @@ class Worker:
     open_streams: int = 0
     final: bool = False
     reader: Optional[threading.Thread] = None
+    ready: threading.Event = field(default_factory=threading.Event)  # first report read
 
 
 @dataclass
@@ -239,6 +240,7 @@ class Clients:
             self.tally.add(report)
             worker.open_streams = report.get("open", 0)
             worker.final = bool(report.get("final"))
+            worker.ready.set()
 
     def check_alive(self) -> None:
         """SoakFailure when a client process ended on its own (a soak bug)."""
@@ -248,10 +250,21 @@ class Clients:
                                   f"{describe_exit(w.proc.returncode)}:\n"
                                   f"{w.stderr_path.read_text(errors='replace')[-3000:]}")
 
+    def wait_ready(self, timeout: float) -> None:
+        """Waits until every client process runs (Python and grpc load slowly on a busy machine)."""
+        deadline = time.monotonic() + timeout
+        for w in self.workers:
+            if not w.ready.wait(max(0.0, deadline - time.monotonic())):
+                self.check_alive()
+                raise SoakFailure(f"soak client (seed {w.seed}) did not start within {timeout:.0f} s")
+
     def kill_one(self) -> None:
-        """SIGKILLs a client process (one with a stream open when there is one), starts another."""
-        streaming = [w for w in self.workers if w.open_streams > 0]
-        victim = self.rng.choice(streaming or self.workers)
+        """SIGKILLs a running client process (one with a stream open when there is one), starts another."""
+        running = [w for w in self.workers if w.ready.is_set()]
+        if not running:
+            return  # all still starting: nothing to kill mid-stream
+        streaming = [w for w in running if w.open_streams > 0]
+        victim = self.rng.choice(streaming or running)
         victim.proc.kill()
         victim.proc.wait()
         victim.reader.join(timeout=5)
@@ -279,7 +292,9 @@ class Clients:
         if stuck:
             raise SoakFailure(f"soak clients {stuck} did not stop within {timeout:.0f} s of SIGTERM "
                               "(calls have deadlines: the daemon stopped answering?)")
-        failed = [w for w in self.workers if w.proc.returncode != 0]
+        # A process started just before the stop may meet SIGTERM before it
+        # installs its handler: ended by our signal, it is no failure.
+        failed = [w for w in self.workers if w.proc.returncode not in (0, -signal.SIGTERM)]
         if failed:
             w = failed[0]
             raise SoakFailure(f"soak client (seed {w.seed}) failed, "
@@ -323,17 +338,24 @@ def final_health(address: str) -> None:
 def run(args: argparse.Namespace, workdir: Path) -> dict:
     extra = ["--workers", str(args.workers), "--log-level", args.log_level, *args.yamord_arg]
     daemon = Daemon(Path(args.yamord), workdir, extra)
-    t0 = time.monotonic()
-    elapsed = lambda: time.monotonic() - t0  # noqa: E731
-    samples: List[Tuple[float, int]] = []
     cold = vm_rss_kb(daemon.pid)
-    samples.append((0.0, cold or 0))
     print(f"soak: yamord pid {daemon.pid} on {daemon.address}, {args.clients} clients in "
           f"{args.processes} processes, {args.duration:.0f} s (warm-up {args.warmup:.0f} s), "
           f"cold RSS {cold} kB", flush=True)
     tally = Tally()
     clients = Clients(daemon.address, args.processes, args.clients // args.processes, args.seed,
                       workdir, tally)
+    try:
+        clients.wait_ready(timeout=180.0)
+    except SoakFailure:
+        clients.kill_all()
+        daemon.kill()
+        raise
+    # The clock starts when every client runs.
+    t0 = time.monotonic()
+    elapsed = lambda: time.monotonic() - t0  # noqa: E731
+    tally.last_ok = t0
+    samples: List[Tuple[float, int]] = [(0.0, vm_rss_kb(daemon.pid) or 0)]
     kill_rng = random.Random(args.seed + 1)
     next_kill = args.kill_every * kill_rng.uniform(0.5, 1.5)
     next_progress = args.progress

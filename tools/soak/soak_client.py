@@ -31,6 +31,12 @@ from collections import Counter
 from pathlib import Path
 from typing import Callable, Dict, List, Optional
 
+# Stop requests may come while grpc is still being imported: remember them
+# from the start (main() turns the flag into its stop event).
+_EARLY_STOP = threading.Event()
+if __name__ == "__main__":  # not when imported (tests)
+    signal.signal(signal.SIGTERM, lambda *_: _EARLY_STOP.set())
+
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "tools" / "python"))  # the generated stubs
 
@@ -540,8 +546,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args(argv)
 
-    stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = _EARLY_STOP
     recorder = Recorder()
     errors: List[str] = []
     threads = [threading.Thread(target=run_client,
@@ -558,6 +563,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         sys.stdout.write(json.dumps(line) + "\n")
         sys.stdout.flush()
 
+    report()  # at once: the driver waits for this line before it starts the clock
     while not stop.wait(REPORT_PERIOD):
         report()
     for t in threads:
