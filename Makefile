@@ -4,10 +4,11 @@ PRESET ?= release
 BUILD_DIR := build/$(PRESET)
 FUZZ_TIME ?= 300
 FUZZ_SMOKE_TIME ?= 10
+SOAK_TIME ?= 600
 JOBS ?= $(shell nproc)
 PY := .venv/bin/python
 
-.PHONY: all deps configure build test test-unit test-py fuzz fuzz-build fuzz-smoke bench demo clean asan tsan
+.PHONY: all deps configure build test test-unit test-py fuzz fuzz-build fuzz-smoke bench demo clean asan tsan soak
 
 all: build
 
@@ -55,6 +56,13 @@ fuzz-smoke: fuzz-build
 # As long as asked: make fuzz FUZZ_TIME=3600
 fuzz: fuzz-build
 	@tools/fuzz/run.sh build/fuzz $(FUZZ_TIME)
+
+# The daemon soak (issue 17): one asan yamord, 64 clients, SOAK_TIME seconds
+# (tools/soak/soak.py --help; SOAK_ARGS adds options). Builds only yamord.
+soak: deps
+	@cmake --preset asan >/dev/null
+	@cmake --build --preset asan -j $(JOBS) --target yamord
+	@$(PY) tools/soak/soak.py --yamord build/asan/host/yamord --duration $(SOAK_TIME) $(SOAK_ARGS)
 
 bench: build
 	@tools/bench/run.sh $(BUILD_DIR)

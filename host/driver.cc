@@ -814,6 +814,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
                                              FormatRounded(options_.max_sleep) + "]");
   }
   double target = 0.0;
+  double seen = 0.0;  // the simulation time this Sleep last saw
   {
     Lock lock(mutex_);
     Backend& backend = RequireBackendLocked("Sleep");
@@ -823,6 +824,7 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
     }
     CheckDivergedLocked();
     target = sim_time_ + seconds;
+    seen = sim_time_;
   }
   while (true) {
     if (shutdown_) ThrowShutdown("Sleep");
@@ -833,10 +835,19 @@ double RobotDriver::Sleep(double seconds, bool real_time, const CancelCheck& can
     if (!backend_ || !backend_->IsSimulation()) {
       throw Error(StatusCode::kFailedPrecondition, "the simulation was closed during Sleep");
     }
+    if (sim_time_ < seen) {
+      // Another caller reset or reopened the world while this Sleep waited
+      // for the robot: the time still owed counts from the new clock. (The
+      // old target made a 0.1-s Sleep step the whole lost timeline again,
+      // minutes of stepping; found by the soak, issue 17.)
+      target = sim_time_ + (target - seen);
+    }
+    seen = sim_time_;
     const double remaining = target - sim_time_;
     if (remaining < 0.5 * time_step_) return sim_time_;
     const double before = sim_time_;
     StepLocked(std::min(remaining, options_.sleep_chunk));
+    seen = sim_time_;
     if (!(sim_time_ > before)) return sim_time_;  // less than a step left
     lock.unlock();
     // Let callers that queued up during the chunk (ElapsedTime, Set...,

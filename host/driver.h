@@ -272,8 +272,10 @@ class RobotDriver {
   /// Motor-on is never forwarded to a module with a motor defect.
   void SendControlMessage(const ControlMessage& message);
   /// Waits `seconds`: in simulation (unless `real_time`) steps the world as
-  /// fast as possible in chunks; otherwise waits on the clock. Returns the
-  /// elapsed time afterwards. CANCELLED when `cancel` fires, UNAVAILABLE
+  /// fast as possible in chunks; otherwise waits on the clock. Simulated
+  /// time others step meanwhile counts; when another caller resets or
+  /// reopens the world, the time still owed counts from its new clock.
+  /// Returns the elapsed time afterwards. CANCELLED when `cancel` fires, UNAVAILABLE
   /// when the driver shuts down, FAILED_PRECONDITION when the world diverges.
   double Sleep(double seconds, bool real_time, const CancelCheck& cancel);
   /// Virtual time in simulation; wall-clock seconds since the backend was

@@ -1,9 +1,11 @@
 // Pictures of the robot for RenderFrame and RecordFrames: the scene from the
 // driver (a ReadScene bridge special; the robot lock is held only while it
-// is read), drawn by the calling thread's renderer (yamor_render) and
-// encoded as PNG outside the lock.
+// is read), drawn by a renderer (yamor_render) borrowed from the daemon's
+// pool of at most RendererCapacity() for one frame, and encoded as PNG
+// outside the lock.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <vector>
@@ -34,11 +36,26 @@ struct EncodedFrame {
 /// robot is asked anything.
 void ValidateFrameSpec(const FrameSpec& spec);
 
+/// Most OpenGL contexts the process's frames use at once (each costs tens of
+/// MB with llvmpipe): the renderer pool holds min(core count, this), at
+/// least 1.
+inline constexpr std::size_t kMaxRenderers = 4;
+
+/// Size of the process's renderer pool. Thread-safe.
+std::size_t RendererCapacity();
+
+/// Renderers (OpenGL contexts) the pool has created so far; never more than
+/// RendererCapacity(), however many threads draw. Thread-safe.
+std::size_t RenderersCreated();
+
 /// One frame of the robot as it is now. Errors: ValidateFrameSpec's,
 /// UNAVAILABLE when this machine has no renderer, the driver's GetScene
 /// errors (FAILED_PRECONDITION no simulation or a diverged world,
-/// UNIMPLEMENTED on a real robot). Never changes the robot.
-EncodedFrame RenderFrame(RobotDriver& driver, const FrameSpec& spec);
+/// UNIMPLEMENTED on a real robot), CANCELLED when `cancel` fires while every
+/// renderer is busy. Never changes the robot. Thread-safe: frames of many
+/// threads are drawn by the shared renderers, RendererCapacity() at a time.
+EncodedFrame RenderFrame(RobotDriver& driver, const FrameSpec& spec,
+                         const CancelCheck& cancel = {});
 
 /// One frame of `scene` drawn by `renderer` (PNG; `fast` trades size for
 /// speed, as video frames want). Errors: the renderer's and EncodePng's.

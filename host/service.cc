@@ -583,7 +583,7 @@ grpc::Status HostServiceImpl::RenderFrame(grpc::ServerContext* context,
   return Serve(context, "RenderFrame", [&] {
     const FrameSpec spec = ToFrameSpec(request->camera(), request->width(), request->height(),
                                        request->hide_labels(), request->hide_legend());
-    EncodedFrame frame = host::RenderFrame(driver_, spec);
+    EncodedFrame frame = host::RenderFrame(driver_, spec, CancelFor(context));
     response->set_png(frame.png.data(), frame.png.size());
     response->set_time(frame.time);
   });

@@ -122,6 +122,12 @@ class OsMesaContext final : public GlContext {
     }
   }
 
+  void Release() override {
+    // OSMesaMakeCurrent(NULL, NULL, ...) unbinds whatever is current on this
+    // thread (Render made this context current here).
+    lib_.MakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
+  }
+
   GlLibrary library() const override { return GlLibrary::kOsMesa; }
 
  private:
@@ -274,6 +280,12 @@ class EglContext final : public GlContext {
     rgba.resize(row * height);
     for (int y = 0; y < height; ++y) {
       std::memcpy(&rgba[row * y], &flipped[row * (height - 1 - y)], row);
+    }
+  }
+
+  void Release() override {
+    if (lib_.GetCurrentContext() == context_) {
+      lib_.MakeCurrent(lib_.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
     }
   }
 

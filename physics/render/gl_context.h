@@ -34,8 +34,8 @@ enum class GlLibrary { kOsMesa, kEgl };
 
 /// One offscreen GL context with a colour + depth + stencil target.
 /// Thread-safety: not thread-safe; MakeCurrent binds it to the calling
-/// thread, so one thread at a time may use it (it may change threads
-/// between frames).
+/// thread and Release unbinds it, so one thread at a time may use it (it
+/// may change threads between a Release and the next MakeCurrent).
 class GlContext {
  public:
   virtual ~GlContext() = default;
@@ -44,6 +44,9 @@ class GlContext {
   virtual void MakeCurrent(int width, int height) = 0;
   /// Reads the target (after drawing) into `rgba`, rows from top to bottom.
   virtual void ReadPixels(int width, int height, std::vector<uint8_t>& rgba) = 0;
+  /// Unbinds the context from the calling thread so another thread may make
+  /// it current (EGL refuses a context current on another thread).
+  virtual void Release() {}
   /// The GL functions (valid while the context is current).
   const GlFunctions& gl() const { return gl_; }
   /// The library.

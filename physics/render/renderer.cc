@@ -293,6 +293,12 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   ValidateScene(scene);
   const View view = ComputeView(camera, scene, width, height);
   context_->MakeCurrent(width, height);
+  // Unbound again at the end, so the next frame may be drawn by another
+  // thread (a daemon's renderers are shared by its gRPC threads).
+  struct ReleaseAtEnd {
+    internal::GlContext& context;
+    ~ReleaseAtEnd() { context.Release(); }
+  } release{*context_};
   const GlFunctions& gl = context_->gl();
   Painter paint(gl, view);
   const Eigen::Vector3d light = LightDirection(scene);

@@ -1,11 +1,14 @@
 // RobotDriver over the in-process simulation, and Evaluate.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <functional>
 #include <map>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "bridge/robot.h"
 #include "common/status.h"
@@ -231,6 +234,80 @@ TEST(DriverSimTest, GetSceneCarriesRealIdsAndFramesComeFromIt) {
     if (e.code() != StatusCode::kUnavailable) throw;
     GTEST_SKIP() << "no renderer on this machine: " << e.what();
   }
+}
+
+TEST(DriverSimTest, ASleepOverlappingAResetOwesOnlyTheRestOfItsTime) {
+  // Issue 17, found by the soak: a Sleep kept its absolute target time, so
+  // a reset by another caller made a short Sleep step the whole lost
+  // timeline again (Sleeps of 0.3 s ran into 30-s deadlines).
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  driver.OpenSimulation(Quadruped());
+  driver.ConnectRobot(0.0, false, nullptr);  // a walking robot steps fastest
+  driver.SendControlMessage(ControlMessage{Tristate::kOn, Tristate::kOn, Tristate::kOn, {}, true});
+  driver.Sleep(1.0, false, nullptr);
+  std::atomic<double> ended{-1.0};
+  std::thread sleeper([&] { ended = driver.Sleep(3.0, false, nullptr); });
+  while (driver.ElapsedTime() < 1.5 && ended.load() < 0) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ASSERT_LT(ended.load(), 0.0) << "the Sleep ended before the reset";
+  driver.ResetSimulation();
+  sleeper.join();
+  // It had stepped at least 0.5 s before the reset, so at most 2.5 s are owed
+  // on the new clock; the old target made it step to t = 4.
+  EXPECT_GT(ended.load(), 0.0);
+  EXPECT_LE(ended.load(), 2.5 + 1e-6);
+  EXPECT_NEAR(driver.ElapsedTime(), ended.load(), 1e-9);
+}
+
+TEST(DriverSimTest, FramesOfManyThreadsShareABoundedNumberOfRenderers) {
+  // Issue 17, found by the soak: a renderer (an OpenGL context, tens of MB)
+  // per gRPC thread took yamord past 800 MB under 64 RenderFrame clients.
+  RobotDriver driver({}, testing::QuadrupedConfig());
+  SimulationSpec spec = Quadruped();
+  spec.config.reset();
+  driver.OpenSimulation(std::move(spec));
+  try {
+    RenderFrame(driver, FrameSpec{.width = 16, .height = 12});
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kUnavailable) throw;
+    GTEST_SKIP() << "no renderer on this machine: " << e.what();
+  }
+  ASSERT_GE(RendererCapacity(), 1u);
+  ASSERT_LE(RendererCapacity(), kMaxRenderers);
+  // More threads than renderers, each drawing several frames (so a renderer
+  // goes from thread to thread and back while each thread lives on, as
+  // gRPC's do), then waves of short-lived threads.
+  const std::size_t threads = 3 * RendererCapacity() + 2;
+  constexpr int kFramesEach = 20;
+  std::atomic<int> frames{0};
+  std::vector<std::string> errors(threads);
+  auto draw = [&](std::size_t t, int count) {
+    try {
+      for (int i = 0; i < count; ++i) {
+        const EncodedFrame frame = RenderFrame(driver, FrameSpec{.width = 16, .height = 12});
+        if (render::DecodePng(frame.png).width == 16) ++frames;
+      }
+    } catch (const Error& e) {
+      errors[t] = e.what();
+    }
+  };
+  {
+    std::vector<std::thread> pool;
+    for (std::size_t t = 0; t < threads; ++t) pool.emplace_back(draw, t, kFramesEach);
+    for (std::thread& t : pool) t.join();
+  }
+  for (int wave = 0; wave < 2; ++wave) {
+    std::vector<std::thread> pool;
+    for (std::size_t t = 0; t < threads; ++t) pool.emplace_back(draw, t, 1);
+    for (std::thread& t : pool) t.join();
+  }
+  for (const std::string& e : errors) EXPECT_EQ(e, "");
+  EXPECT_EQ(frames.load(), static_cast<int>((kFramesEach + 2) * threads));
+  EXPECT_LE(RenderersCreated(), RendererCapacity());
+  // The cancel check is consulted only while every renderer is busy: with
+  // one free, even a cancelled caller draws.
+  EXPECT_NO_THROW(RenderFrame(driver, FrameSpec{.width = 8, .height = 8}, [] { return true; }));
 }
 
 TEST(DriverSimTest, FramesOfADivergedWorldFailAndBadSpecsAreRefusedFirst) {

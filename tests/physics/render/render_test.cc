@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -297,6 +298,29 @@ TEST_P(RenderTest, BadSizesCamerasAndScenesAreRefusedNamingTheValue) {
   Camera above;
   above.elevation = 1.5707963267948966;
   EXPECT_EQ(code_of(scene, above, 32, 24).first, StatusCode::kOk);
+}
+
+TEST_P(RenderTest, OneRendererDrawsTheSameFrameFromThreadAfterThread) {
+  // A daemon's renderers are shared by its threads (host/frames.cc): a
+  // context bound on one thread must be usable from the next (EGL refuses a
+  // context still current elsewhere; issue 17).
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const Camera camera = FixedCamera();
+  const Image first = renderer_->Render(scene, camera, 48, 32);
+  for (int i = 0; i < 3; ++i) {
+    std::optional<Image> other;
+    std::string error;
+    std::thread([&] {
+      try {
+        other = renderer_->Render(scene, camera, 48, 32);
+      } catch (const Error& e) {
+        error = e.what();
+      }
+    }).join();
+    ASSERT_TRUE(other) << "thread " << i << ": " << error;
+    EXPECT_EQ(other->rgba, first.rgba) << "thread " << i;
+  }
+  EXPECT_EQ(renderer_->Render(scene, camera, 48, 32).rgba, first.rgba);  // and back here
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, RenderTest, ::testing::Values(Backend::kOsMesa, Backend::kEgl),
