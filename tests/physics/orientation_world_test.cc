@@ -29,13 +29,7 @@ void Oscillate(World& world, double amplitude) {
 class OrientationWorldTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(OrientationWorldTest, WalkingIsNotUpsideDownAndAFlipIsSeenWithinOnePeriod) {
-  // The estimator's one-period bound is checked on the exact solver: with the
-  // iterative one (the default for robots above 8 bodies) the snake takes
-  // 1.05-1.22 periods to settle on its back after the flip, depending on the
-  // iteration count (issue 18); the quadruped meets the bound either way.
-  WorldOptions world_options;
-  world_options.step_method = StepMethod::kExact;
-  World world(Morphology::LoadFile(kWorlds + GetParam() + ".xml"), world_options);
+  World world(Morphology::LoadFile(kWorlds + GetParam() + ".xml"));
   const int central = world.CentralModule();
   const double dt = world.options().time_step;
   const int window = static_cast<int>(std::lround(kPeriod / dt));

@@ -96,14 +96,7 @@ TEST(ReconfigurationTest, ConnectPlacesTheModuleExactlyAndJoinsIt) {
 }
 
 TEST(ReconfigurationTest, TheRobotIsLiftedWhenOnlyTheGroundIsInTheWay) {
-  // The expected lift below assumes knee 5 lies exactly flat. The exact
-  // solver's joints hold it flat to well under 1e-6 m here; the iterative one
-  // (the quadruped's default) leaves a residual tilt worth 2e-5 m at 20
-  // iterations, 8e-6 m at 35 and 4e-6 m at 50 (issue 18), so this geometric
-  // check runs on the exact solver.
-  WorldOptions options;
-  options.step_method = StepMethod::kExact;
-  World world(WithSpares("quadruped", {9}), options);
+  World world(WithSpares("quadruped", {9}));
   world.Step(200);
   const double height = world.CentralPosition().z();
   // Knee 5 lies flat with its top face on the ground (knees are mounted upside

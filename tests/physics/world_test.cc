@@ -231,10 +231,6 @@ TEST(WorldTest, StartAnglesAreTheInitialPoseAndSetPointAndResetRestoresThem) {
 
 TEST(WorldTest, SameSeedGivesBitIdenticalWorlds) {
   WorldOptions options;
-  // The exact solver, whose motion does not depend on the seed (the
-  // iterative one draws its constraint order from it too; see
-  // IterativeOrderFollowsTheSeedAndReplays).
-  options.step_method = StepMethod::kExact;
   options.seed = 99;
   World a(Load("quadruped"), options);
   World b(Load("quadruped"), options);
@@ -301,9 +297,7 @@ TEST(WorldTest, IterativeStepsAreDeterministicAcrossThreads) {
   reference.Reset();
   ExpectSameBits(QuadrupedTrace(reference, 800), expected);
   // And it is a different solver from the exact one.
-  WorldOptions exact_options;
-  exact_options.step_method = StepMethod::kExact;
-  World exact(Load("quadruped"), exact_options);
+  World exact(Load("quadruped"));
   const std::vector<double> other = QuadrupedTrace(exact, 800);
   EXPECT_NE(std::memcmp(other.data(), expected.data(), other.size() * sizeof(double)), 0);
 }
