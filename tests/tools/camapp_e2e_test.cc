@@ -102,24 +102,48 @@ struct Errors {
   double Rms() const { return n ? std::sqrt(sum_sq / n) : 0; }
 };
 
-TEST(CamAppEndToEndTest, TrackedPositionsOfAWalkAreWithin5mmThroughDropoutsAndACameraRestart) {
-  const std::filesystem::path dir = TempDir();
-  const std::string calibration = (dir / "camera.txt").string();
-  YamordProcess writer(kCamApp, {"--calibration-only", "--write-calibration", calibration, "--led-height",
-                                 FormatDouble(kLedHeight)});
-  ASSERT_EQ(writer.WaitForExit(std::chrono::seconds(20)), 0);
+// A calibration file written by yamor-camapp for the quadruped's LED height
+// and a yamord (virtual time) whose position source is the camera on
+// camera_port_, which each test starts itself.
+class CamAppEndToEndTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = TempDir();
+    calibration_ = (dir_ / "camera.txt").string();
+    YamordProcess writer(kCamApp, {"--calibration-only", "--write-calibration", calibration_, "--led-height",
+                                   FormatDouble(kLedHeight)});
+    ASSERT_EQ(writer.WaitForExit(std::chrono::seconds(20)), 0);
+    camera_port_ = FreePort();
+    yamord_ = std::make_unique<YamordProcess>(
+        kYamord, std::vector<std::string>{"--listen", "127.0.0.1:0", "--log-level", "warn", "--led-tracker",
+                                          "127.0.0.1:" + std::to_string(camera_port_), "--tracker-calibration",
+                                          calibration_, "--tracker-max-age", "1", "--position-source",
+                                          "tracker"});
+    port_ = yamord_->WaitForPort();
+    ASSERT_GT(port_, 0);
+    stub_ = v1::Host::NewStub(
+        grpc::CreateChannel("127.0.0.1:" + std::to_string(port_), grpc::InsecureChannelCredentials()));
+  }
 
-  const int camera_port = FreePort();
-  YamordProcess yamord(kYamord, {"--listen", "127.0.0.1:0", "--log-level", "warn", "--led-tracker",
-                                 "127.0.0.1:" + std::to_string(camera_port), "--tracker-calibration",
-                                 calibration, "--tracker-max-age", "1", "--position-source", "tracker"});
-  const int port = yamord.WaitForPort();
-  ASSERT_GT(port, 0);
-  auto stub = v1::Host::NewStub(
-      grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials()));
-  auto call = [&](auto method, const auto& request, auto* response) {
-    return ::yamor::testing::Call(*stub, method, request, response, 30);
-  };
+  template <typename Method, typename Request, typename Response>
+  grpc::Status Call(Method method, const Request& request, Response* response) {
+    return ::yamor::testing::Call(*stub_, method, request, response, 30);
+  }
+
+  std::filesystem::path dir_;
+  std::string calibration_;
+  int camera_port_ = 0;
+  std::unique_ptr<YamordProcess> yamord_;
+  int port_ = 0;
+  std::unique_ptr<v1::Host::Stub> stub_;
+};
+
+TEST_F(CamAppEndToEndTest, TrackedPositionsOfAWalkAreWithin5mmThroughDropoutsAndACameraRestart) {
+  const std::filesystem::path& dir = dir_;
+  const std::string& calibration = calibration_;
+  const int camera_port = camera_port_;
+  const int port = port_;
+  auto call = [this](auto method, const auto& request, auto* response) { return Call(method, request, response); };
   v1::RobotPositionResponse truth;
   ASSERT_OK(call(&v1::Host::Stub::SimulatedPosition, Empty(), &truth));
   ASSERT_NEAR(truth.position().z(), kLedHeight, 1e-4) << "the camera's calibration height";
@@ -223,23 +247,11 @@ TEST(CamAppEndToEndTest, TrackedPositionsOfAWalkAreWithin5mmThroughDropoutsAndAC
 // it, so the tracked position becomes UNAVAILABLE (never a stale one) and
 // the camera logs the frames "hidden". With --frames the camera also writes
 // its picture of the frames: the render resampled through its lens.
-TEST(CamAppEndToEndTest, ARobotOnItsBackHidesTheLedAndTheCameraFilmsPictures) {
-  const std::filesystem::path dir = TempDir();
-  const std::string calibration = (dir / "camera.txt").string();
-  YamordProcess writer(kCamApp, {"--calibration-only", "--write-calibration", calibration, "--led-height",
-                                 FormatDouble(kLedHeight)});
-  ASSERT_EQ(writer.WaitForExit(std::chrono::seconds(20)), 0);
-  const int camera_port = FreePort();
-  YamordProcess yamord(kYamord, {"--listen", "127.0.0.1:0", "--log-level", "warn", "--led-tracker",
-                                 "127.0.0.1:" + std::to_string(camera_port), "--tracker-calibration",
-                                 calibration, "--tracker-max-age", "1", "--position-source", "tracker"});
-  const int port = yamord.WaitForPort();
-  ASSERT_GT(port, 0);
-  auto stub = v1::Host::NewStub(
-      grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials()));
-  auto call = [&](auto method, const auto& request, auto* response) {
-    return ::yamor::testing::Call(*stub, method, request, response, 30);
-  };
+TEST_F(CamAppEndToEndTest, ARobotOnItsBackHidesTheLedAndTheCameraFilmsPictures) {
+  const std::filesystem::path& dir = dir_;
+  const int camera_port = camera_port_;
+  const int port = port_;
+  auto call = [this](auto method, const auto& request, auto* response) { return Call(method, request, response); };
   const std::string truth = (dir / "truth.csv").string();
   const std::filesystem::path pictures = dir / "pictures";
   YamordProcess camera(kCamApp, {"--yamord", "127.0.0.1:" + std::to_string(port), "--listen",
