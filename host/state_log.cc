@@ -1,5 +1,7 @@
 #include "host/state_log.h"
 
+#include <cmath>
+
 #include "common/log.h"
 
 namespace yamor::host {
@@ -40,7 +42,13 @@ std::optional<StateUpdate> StateLog::Wait(WatchCursor& cursor, double period,
     if (!cursor.has_sample) return true;
     const double t = latest_sample_->time;
     // Time going back means a reset or a new world: report it at once.
-    return t < cursor.last.time || t >= cursor.last.time + period - 1e-9;
+    if (t < cursor.last.time) return true;
+    // Due at the next multiple of the period after the last report, not a
+    // period after it: a watcher that woke late (its last report off the grid)
+    // would otherwise skip the sample that ends a Sleep on the grid and wait
+    // for time that may never come.
+    const double next_due = (std::floor(cursor.last.time / period + 1e-9) + 1.0) * period;
+    return t >= next_due - 1e-9;
   };
   auto new_events = [&] { return !events_.empty() && events_.back().first >= cursor.next_event; };
   cv_.wait_for(lock, wait, [&] { return shutdown_ || new_sample() || new_events(); });

@@ -51,6 +51,26 @@ TEST(StateLogTest, SamplesArePacedByPeriodAndGiveAVelocity) {
   EXPECT_EQ(reset->velocity[0], 0.0);
 }
 
+TEST(StateLogTest, ALateWatcherGetsBackOnThePeriodGrid) {
+  StateLog log;
+  WatchCursor cursor = log.NewCursor();
+  log.RecordSample(PoseAt(0.0, 0.0));
+  ASSERT_TRUE(log.Wait(cursor, 0.25, milliseconds(0)));
+  // The watcher woke late: the first sample it sees is off the grid.
+  log.RecordSample(PoseAt(0.8, 0.0));
+  auto late = log.Wait(cursor, 0.25, milliseconds(0));
+  ASSERT_TRUE(late);
+  EXPECT_DOUBLE_EQ(late->pose.time, 0.8);
+  // A Sleep ending at 1.0 is due on the grid (0.8 + 0.25 would skip it and
+  // the stream would wait for time that may never come).
+  log.RecordSample(PoseAt(0.9, 0.0));
+  EXPECT_FALSE(log.Wait(cursor, 0.25, milliseconds(0)));
+  log.RecordSample(PoseAt(1.0, 0.0));
+  auto on_grid = log.Wait(cursor, 0.25, milliseconds(0));
+  ASSERT_TRUE(on_grid);
+  EXPECT_DOUBLE_EQ(on_grid->pose.time, 1.0);
+}
+
 TEST(StateLogTest, KeepsTheLastEventsOnly) {
   StateLog log;
   WatchCursor cursor = log.NewCursor();
