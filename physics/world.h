@@ -40,10 +40,10 @@ enum class StepMethod {
 /// Thread-safety: plain value.
 struct WorldOptions {
   double time_step = 0.002;        ///< Fixed step, s (see docs/benchmarks.md for why 2 ms).
-  StepMethod step_method = StepMethod::kExact;  ///< Solver.
+  StepMethod step_method = StepMethod::kAuto;  ///< Solver (kAuto: by robot size).
   int iterations = 35;             ///< Iterations per step of the iterative solver, [1, 10000] (35: see docs/benchmarks.md, "Faster worlds").
   double over_relaxation = 1.3;    ///< SOR factor ω of the iterative solver, in (0, 2).
-  int auto_max_exact_bodies = 8;   ///< kAuto: most bodies stepped by kExact, >= 0.
+  int auto_max_exact_bodies = 16;  ///< kAuto: most bodies stepped by kExact, >= 0 (16: robots of up to 8 modules).
   double gravity = 9.81;           ///< Magnitude of gravity, m/s².
   double ground_friction = 0.6;    ///< Coulomb friction module/ground.
   double module_friction = 0.5;    ///< Coulomb friction module/module.

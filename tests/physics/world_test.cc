@@ -399,12 +399,24 @@ TEST(WorldTest, OverRelaxationAndIterationsReachTheSolver) {
 
 TEST(WorldTest, AutoPicksTheExactSolverForSmallRobotsAndIterativeForLargeOnes) {
   WorldOptions options;
-  options.step_method = StepMethod::kAuto;
-  // Defaults: up to 8 bodies exact (the wheel has 6, the tripod 8), the
-  // quadruped (10) and anything larger iterative.
+  // The default is kAuto: up to 16 bodies exact (every robot of configs/worlds,
+  // the quadruped with 10, the extended quadruped with its spares), a chain of
+  // 16 modules (17 bodies) and anything larger iterative.
+  EXPECT_EQ(options.step_method, StepMethod::kAuto);
   EXPECT_EQ(World(Load("wheel"), options).ActiveStepMethod(), StepMethod::kExact);
   EXPECT_EQ(World(Load("tripod"), options).ActiveStepMethod(), StepMethod::kExact);
-  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kIterative);
+  EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kExact);
+  EXPECT_EQ(World(Load("snake"), options).ActiveStepMethod(), StepMethod::kExact);
+  World extended(Morphology::LoadFile(std::string(YAMOR_SOURCE_DIR) +
+                                      "/configs/lifelong/quadruped-extended-table.xml"),
+                 options);
+  EXPECT_EQ(extended.ActiveStepMethod(), StepMethod::kExact) << extended.BodyCount() << " bodies";
+  World largest_exact(Chain(15), options);
+  EXPECT_EQ(largest_exact.BodyCount(), 16);
+  EXPECT_EQ(largest_exact.ActiveStepMethod(), StepMethod::kExact);
+  World smallest_iterative(Chain(16), options);
+  EXPECT_EQ(smallest_iterative.BodyCount(), 17);
+  EXPECT_EQ(smallest_iterative.ActiveStepMethod(), StepMethod::kIterative);
   World big(Chain(32), options);
   EXPECT_EQ(big.BodyCount(), 33);
   EXPECT_EQ(big.ActiveStepMethod(), StepMethod::kIterative);

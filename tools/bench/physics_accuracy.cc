@@ -41,6 +41,9 @@
 //   --compare_exact                 also run the exact solver at each step
 //   --csv                           one line per gait and configuration too
 //   --no_reference                  skip the reference (profiling)
+//   --seeds=N                       also run gait 0 with world seeds 1..N-1 (the
+//                                   iterative solver's constraint order) and print
+//                                   the spread of its distance over the N seeds
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -88,6 +91,7 @@ struct Config {
   double step = 0.002;
   int iterations = WorldOptions().iterations;
   double sor = WorldOptions().over_relaxation;
+  std::uint64_t seed = 0;  // WorldOptions::seed: the iterative solver's constraint order
 };
 
 std::string MethodName(StepMethod m) {
@@ -132,6 +136,7 @@ Run Evaluate(const Robot& robot, const RobotConfig& gait, const Config& c) {
   options.world.step_method = c.method;
   options.world.iterations = c.iterations;
   options.world.over_relaxation = c.sor;
+  options.world.seed = c.seed;
   options.phase_seed = 1;
   options.master = gait.master_id;
   yamor::bridge::Robot sim(robot.morphology, options);
@@ -263,6 +268,7 @@ struct Settings {
   bool compare_exact = false;
   bool csv = false;
   bool no_reference = false;
+  int seeds = 1;
 };
 
 Settings ParseSettings(int argc, char** argv) {
@@ -302,6 +308,8 @@ Settings ParseSettings(int argc, char** argv) {
       s.duration = ParsePositive(std::string(*v), "--duration");
     } else if (auto v = value("--cache")) {
       s.cache = *v;
+    } else if (auto v = value("--seeds")) {
+      s.seeds = static_cast<int>(ParsePositive(std::string(*v), "--seeds"));
     } else if (arg == "--compare_exact") {
       s.compare_exact = true;
     } else if (arg == "--no_reference") {
@@ -313,7 +321,7 @@ Settings ParseSettings(int argc, char** argv) {
                   "unknown argument '" + std::string(arg) +
                       "' (flags: --robot= --method= --step= --iterations= --sor= --gaits= "
                       "--reference_method= --reference_step= --reference_iterations= "
-                      "--warmup= --duration= --cache= --compare_exact --csv --no_reference)");
+                      "--warmup= --duration= --cache= --seeds= --compare_exact --csv --no_reference)");
     }
   }
   return s;
@@ -419,10 +427,12 @@ int Main(int argc, char** argv) {
   std::printf("reference distances m:");
   for (const Run& r : reference) std::printf(" %.4f%s", r.distance, r.diverged ? "(div)" : "");
   std::printf("\n\n");
-  std::printf("| %-9s | %-7s | %-5s | %-4s | %-10s | %-8s | %-6s | %-12s | %-9s | %-8s | %-7s | %-10s | %-7s |\n",
+  std::printf("| %-9s | %-7s | %-5s | %-4s | %-10s | %-8s | %-6s | %-12s | %-9s | %-8s | %-7s | %-10s | %-7s |%s\n",
               "method", "step ms", "iter", "SOR", "solver", "gait 0 m", "gait 0", "median |err|",
-              "within 15%", "diverged", "CPU ms", "servo mrad", "sink mm");
-  std::printf("|-----------|---------|-------|------|------------|----------|--------|--------------|-----------|----------|---------|------------|---------|\n");
+              "within 15%", "diverged", "CPU ms", "servo mrad", "sink mm",
+              s.seeds > 1 ? " gait 0 over seeds: min..max m | spread |" : "");
+  std::printf("|-----------|---------|-------|------|------------|----------|--------|--------------|-----------|----------|---------|------------|---------|%s\n",
+              s.seeds > 1 ? "-------------------------------|--------|" : "");
   for (const auto& [c, cached] : configs) {
     std::vector<double> errors, cpu, servo, sink;
     int within = 0, diverged = 0;
@@ -448,13 +458,28 @@ int Main(int argc, char** argv) {
     }
     const double ref0 = reference[0].distance;
     const bool iterative_params = c.method != StepMethod::kExact;
-    std::printf("| %-9s | %7.3g | %5s | %4s | %-10s | %8.4f | %+5.1f%% | %11.1f%% | %5d/%-3zu | %8d | %7.0f | %10.1f | %7.2f |\n",
+    std::printf("| %-9s | %7.3g | %5s | %4s | %-10s | %8.4f | %+5.1f%% | %11.1f%% | %5d/%-3zu | %8d | %7.0f | %10.1f | %7.2f |",
                 MethodName(c.method).c_str(), c.step * 1e3,
                 iterative_params ? std::to_string(c.iterations).c_str() : "-",
                 iterative_params ? Format(c.sor).c_str() : "-",
                 runs[0].solver.c_str(), runs[0].distance,
                 ref0 > 0 ? 100 * (runs[0].distance - ref0) / ref0 : 0.0, 100 * Median(errors),
                 within, errors.size(), diverged, 1e3 * Median(cpu), 1e3 * Median(servo), 1e3 * Median(sink));
+    if (s.seeds > 1) {
+      // The same gait under other constraint orders: the exact solver ignores
+      // the order, the iterative one converges differently for each.
+      std::vector<double> distances = {runs[0].distance};
+      for (int seed = 1; seed < s.seeds; ++seed) {
+        Config seeded = c;
+        seeded.seed = static_cast<std::uint64_t>(seed);
+        distances.push_back(Evaluate(robot, robot.gaits[0], seeded).distance);
+      }
+      const auto [lo, hi] = std::minmax_element(distances.begin(), distances.end());
+      const double median = Median(distances);
+      std::printf(" %13.4f..%-15.4f | %5.1f%% |", *lo, *hi,
+                  median > 0 ? 100 * (*hi - *lo) / median : 0.0);
+    }
+    std::printf("\n");
     std::fflush(stdout);
   }
   return 0;
