@@ -420,6 +420,12 @@ TEST(WorldTest, AutoPicksTheExactSolverForSmallRobotsAndIterativeForLargeOnes) {
   World big(Chain(32), options);
   EXPECT_EQ(big.BodyCount(), 33);
   EXPECT_EQ(big.ActiveStepMethod(), StepMethod::kIterative);
+  // So a default world of the quadruped moves bit for bit like an exact one:
+  // every result measured with kExact on it (learning, lifelong) still holds.
+  WorldOptions exact;
+  exact.step_method = StepMethod::kExact;
+  World by_default(Load("quadruped")), exactly(Load("quadruped"), exact);
+  ExpectSameBits(QuadrupedTrace(by_default, 300), QuadrupedTrace(exactly, 300));
   // The threshold is the body count, inclusive.
   options.auto_max_exact_bodies = 10;
   EXPECT_EQ(World(Load("quadruped"), options).ActiveStepMethod(), StepMethod::kExact);
