@@ -58,6 +58,7 @@ struct OsMesaLibrary {
   decltype(&::OSMesaMakeCurrent) MakeCurrent = nullptr;
   decltype(&::OSMesaDestroyContext) DestroyContext = nullptr;
   decltype(&::OSMesaGetProcAddress) GetProcAddress = nullptr;
+  decltype(&::OSMesaPixelStore) PixelStore = nullptr;
 };
 
 // Loaded once per process and never unloaded (Mesa keeps threads and TLS).
@@ -77,6 +78,7 @@ const OsMesaLibrary& OsMesa() {
     sym(l.MakeCurrent, "OSMesaMakeCurrent");
     sym(l.DestroyContext, "OSMesaDestroyContext");
     sym(l.GetProcAddress, "OSMesaGetProcAddress");
+    sym(l.PixelStore, "OSMesaPixelStore");
     return l;
   }();
   return library;
@@ -110,16 +112,15 @@ class OsMesaContext final : public GlContext {
       throw Error(StatusCode::kInternal, "OSMesaMakeCurrent failed for " +
                                              std::to_string(width) + "x" + std::to_string(height));
     }
+    // Rows from the top, as images are: ReadPixels is one plain copy.
+    lib_.PixelStore(OSMESA_Y_UP, 0);
   }
 
   void ReadPixels(int width, int height, std::vector<uint8_t>& rgba) override {
     gl_.Finish();
-    // OSMesa's buffer is the frame, bottom row first.
-    const std::size_t row = static_cast<std::size_t>(width) * 4;
-    rgba.resize(row * height);
-    for (int y = 0; y < height; ++y) {
-      std::memcpy(&rgba[row * y], &buffer_[row * (height - 1 - y)], row);
-    }
+    // OSMesa's buffer is the frame, top row first (OSMESA_Y_UP 0).
+    rgba.assign(buffer_.begin(),
+                buffer_.begin() + static_cast<std::ptrdiff_t>(width) * height * 4);
   }
 
   void Release() override {
