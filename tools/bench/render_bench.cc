@@ -6,9 +6,11 @@
 // (tools/bench/run.sh's plain_programs).
 //
 //   render_bench [--frames N] [--runs N] [--video-only] [--breakdown] [--png DIR]
-//                [--backend osmesa|egl]
+//                [--yuv FILE] [--backend osmesa|egl]
 //
-// --png DIR also writes a sample frame of each robot and camera there.
+// --png DIR also writes a sample frame of each robot and camera there;
+// --yuv FILE the raw video's 500 frames as ffmpeg reads them (yuv420p,
+// 320x240), to time encoders alone.
 // CPU times are the whole process's (llvmpipe rasterises on its own
 // threads) plus, for the video, ffmpeg's (a child process).
 #include <sys/resource.h>
@@ -130,13 +132,17 @@ struct VideoCost {
 
 // 500 frames of the quadruped walking from t = 0, 0.04 s apart, into an
 // MP4: PNG frames (`raw` false) or raw RGBA frames.
-VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw) {
+VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw,
+                    const std::string& yuv_path = {}) {
   auto robot = Quadruped(0.0);
   std::vector<yamor::snp::Frame> out;
   const std::string path = (std::filesystem::temp_directory_path() /
                             ("render_bench_" + std::to_string(getpid()) + ".mp4"))
                                .string();
   VideoCost cost;
+  std::ofstream yuv_out;
+  if (!yuv_path.empty()) yuv_out.open(yuv_path, std::ios::binary | std::ios::trunc);
+  std::vector<uint8_t> yuv;
   const double children_start = ChildrenCpuSeconds();
   yamor::render::VideoResult video;
   {
@@ -156,6 +162,11 @@ VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw) {
         writer.AddFrame(yamor::render::EncodePng(image, true));
       }
       cost.frames_cpu += ProcessCpuSeconds() - t0;
+      if (yuv_out.is_open()) {
+        yamor::render::RgbaToYuv420(image, yuv);
+        yuv_out.write(reinterpret_cast<const char*>(yuv.data()),
+                      static_cast<std::streamsize>(yuv.size()));
+      }
       robot->Advance(0.04, out);
     }
     video = writer.Finish();
@@ -192,6 +203,8 @@ int main(int argc, char** argv) {
   bool breakdown = false;
   app.add_flag("--breakdown", breakdown, "Also the CPU per frame with each part switched off");
   app.add_option("--png", png_dir, "Also write sample frames into this directory");
+  std::string yuv_path;
+  app.add_option("--yuv", yuv_path, "Also write the raw video's frames (yuv420p) to this file");
   app.add_option("--backend", backend_name, "auto, osmesa or egl")
       ->check(CLI::IsMember({"auto", "osmesa", "egl"}));
   CLI11_PARSE(app, argc, argv);
@@ -291,6 +304,10 @@ int main(int argc, char** argv) {
   std::printf("  raw frames: ffmpeg (H.264)             %7.2f s CPU\n", Median(raw_ffmpeg));
   std::printf("  raw frames: video cost / evaluation    %7.2fx\n", Median(raw_ratio));
 
+  if (!yuv_path.empty()) {
+    MakeVideo(renderer, follow, /*raw=*/true, yuv_path);
+    std::printf("\nthe raw video's frames (yuv420p 320x240, 25 fps) in %s\n", yuv_path.c_str());
+  }
   if (!png_dir.empty()) {
     std::filesystem::create_directories(png_dir);
     Camera top;
