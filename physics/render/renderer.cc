@@ -132,7 +132,7 @@ std::array<Eigen::Vector3d, 8> Corners(const Eigen::Isometry3d& pose,
   return corners;
 }
 
-// Faces as corner indices (counter-clockwise seen from outside); face f's
+// Faces as corner indices (clockwise seen from outside); face f's
 // outward normal is axis f / 2 of the box frame, negative for even f.
 constexpr std::array<std::array<int, 4>, 6> kFaces = {{
     {0, 2, 6, 4}, {1, 5, 7, 3},  // -x, +x
@@ -183,14 +183,29 @@ void AddBox(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& 
   }
 }
 
-// Adds a box's twelve edges (lines).
+// Adds those of a box's twelve edges that can show from `eye`: an edge
+// between two faces turned away from the eye lies behind the box itself (a
+// closed convex solid) and would only fail the depth test.
 void AddBoxEdges(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
-                 const Eigen::Vector3d& size, const Color& color) {
+                 const Eigen::Vector3d& size, const Color& color, const Eigen::Vector3d& eye) {
   const auto corners = Corners(pose, center, size);
+  std::array<bool, 6> facing{};
+  for (int f = 0; f < 6; ++f) {
+    const Eigen::Vector3d n = pose.linear().col(f / 2) * ((f % 2 == 0) ? -1.0 : 1.0);
+    facing[f] = n.dot(eye - corners[kFaces[f][0]]) > 0.0;
+  }
   const auto rgba = Rgba(color);
   for (int i = 0; i < 8; ++i) {
-    for (int bit : {1, 2, 4}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const int bit = 1 << axis;
       if ((i & bit) != 0) continue;
+      // The edge along `axis` from corner i borders one face of each other axis,
+      // on the side corner i is on.
+      const int a = (axis + 1) % 3;
+      const int b = (axis + 2) % 3;
+      const int face_a = 2 * a + ((i >> a) & 1);
+      const int face_b = 2 * b + ((i >> b) & 1);
+      if (!facing[face_a] && !facing[face_b]) continue;
       batch.Add(corners[i], rgba);
       batch.Add(corners[i | bit], rgba);
     }
@@ -459,7 +474,8 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     const Eigen::Isometry3d pose = ToIsometry(box.pose);
     AddBox(batch, pose, Eigen::Vector3d::Zero(), box.size, kStaticBoxColor, lighting);
     if (options.edges) {
-      AddBoxEdges(edges, pose, Eigen::Vector3d::Zero(), box.size, Scale(kStaticBoxColor, 0.55f));
+      AddBoxEdges(edges, pose, Eigen::Vector3d::Zero(), box.size, Scale(kStaticBoxColor, 0.55f),
+                  view.eye);
     }
   }
   for (const SceneModule& m : scene.modules) {
@@ -470,7 +486,8 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
       const Color color = is_body ? BodyColor(m) : HandleColor(m);
       AddBox(batch, is_body ? body : handle, box.center, box.size, color, lighting);
       if (options.edges) {
-        AddBoxEdges(edges, is_body ? body : handle, box.center, box.size, Scale(color, 0.45f));
+        AddBoxEdges(edges, is_body ? body : handle, box.center, box.size, Scale(color, 0.45f),
+                    view.eye);
       }
     }
   }
@@ -479,6 +496,11 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     gl.Enable(GL_POLYGON_OFFSET_FILL);
     gl.PolygonOffset(1.0f, 1.0f);
   }
+  // Boxes are closed and convex: their back faces are always hidden by their
+  // front faces, so they are not rasterised at all.
+  gl.Enable(GL_CULL_FACE);
+  gl.CullFace(GL_BACK);
+  gl.FrontFace(GL_CW);  // kFaces' winding
   batch.Draw(gl, GL_TRIANGLES);
   gl.Disable(GL_POLYGON_OFFSET_FILL);
   edges.Draw(gl, GL_LINES);
@@ -490,6 +512,7 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
            Lighting(/*on=*/false, light));
     batch.Draw(gl, GL_TRIANGLES);
   }
+  gl.Disable(GL_CULL_FACE);
   gl.DisableClientState(GL_COLOR_ARRAY);
   gl.DisableClientState(GL_VERTEX_ARRAY);
 
