@@ -5,7 +5,7 @@
 // against the 20-s evaluation it shows. A plain program printing a table
 // (tools/bench/run.sh's plain_programs).
 //
-//   render_bench [--frames N] [--runs N] [--video-only] [--breakdown] [--png DIR]
+//   render_bench [--frames N] [--runs N] [--video-only | --no-video] [--breakdown] [--png DIR]
 //                [--yuv FILE] [--backend osmesa|egl]
 //
 // --png DIR also writes a sample frame of each robot and camera there;
@@ -202,6 +202,8 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "Frames per measurement");
   app.add_option("--runs", runs, "Runs of the 20-s video measurement (medians)")->check(CLI::PositiveNumber);
   app.add_flag("--video-only", video_only, "Only the 20-s video measurement");
+  bool no_video = false;
+  app.add_flag("--no-video", no_video, "Leave out the 20-s video measurement");
   bool breakdown = false;
   app.add_flag("--breakdown", breakdown, "Also the CPU per frame with each part switched off");
   app.add_option("--png", png_dir, "Also write sample frames into this directory");
@@ -283,7 +285,7 @@ int main(int argc, char** argv) {
   std::vector<double> eval_cpus, png_frames, png_ffmpeg, png_ratio, raw_frames, raw_render, raw_ffmpeg,
       raw_ratio;
   bool made_video = true;
-  for (int run = 0; run < runs; ++run) {
+  for (int run = 0; run < (no_video ? 0 : runs); ++run) {
     const double eval_cpu_start = ProcessCpuSeconds();
     const auto evaluated = Quadruped(20.0);
     const double eval_cpu = ProcessCpuSeconds() - eval_cpu_start;
@@ -297,6 +299,7 @@ int main(int argc, char** argv) {
       (raw ? raw_ratio : png_ratio).push_back((cost.frames_cpu + cost.ffmpeg_cpu) / eval_cpu);
     }
   }
+  if (no_video) return 0;
   std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames), median of %d runs:\n", runs);
   std::printf("  evaluation alone (20 s simulated)      %7.2f s CPU\n", Median(eval_cpus));
   std::printf("  PNG frames: render + PNG               %7.2f s CPU\n", Median(png_frames));
