@@ -381,7 +381,12 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   ValidateFrameSize(width, height);
   ValidateScene(scene);
   const View view = ComputeView(camera, scene, width, height);
-  context_->MakeCurrent(width, height);
+  // Declared before the release below, so OSMesa's target (the image's
+  // pixels) outlives the context's binding even when drawing throws.
+  Image image;
+  image.width = width;
+  image.height = height;
+  context_->MakeCurrent(width, height, image.rgba);
   // Unbound again at the end, so the next frame may be drawn by another
   // thread (a daemon's renderers are shared by its gRPC threads).
   struct ReleaseAtEnd {
@@ -516,9 +521,6 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   gl.DisableClientState(GL_COLOR_ARRAY);
   gl.DisableClientState(GL_VERTEX_ARRAY);
 
-  Image image;
-  image.width = width;
-  image.height = height;
   context_->ReadPixels(width, height, image.rgba);
   if (const GLenum error = gl.GetError(); error != GL_NO_ERROR) {
     throw Error(StatusCode::kInternal, fmt::format("OpenGL error 0x{:04x} while rendering", error));

@@ -299,18 +299,18 @@ int main(int argc, char** argv) {
       (raw ? raw_ratio : png_ratio).push_back((cost.frames_cpu + cost.ffmpeg_cpu) / eval_cpu);
     }
   }
-  if (no_video) return 0;
-  std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames), median of %d runs:\n", runs);
-  std::printf("  evaluation alone (20 s simulated)      %7.2f s CPU\n", Median(eval_cpus));
-  std::printf("  PNG frames: render + PNG               %7.2f s CPU\n", Median(png_frames));
-  std::printf("  PNG frames: ffmpeg (H.264)             %7.2f s CPU%s\n", Median(png_ffmpeg),
-              made_video ? "" : " (no ffmpeg: PNG sequence)");
-  std::printf("  PNG frames: video cost / evaluation    %7.2fx\n", Median(png_ratio));
-  std::printf("  raw frames: render + YUV + pipe        %7.2f s CPU\n", Median(raw_frames));
-  std::printf("    of which render                      %7.2f s CPU\n", Median(raw_render));
-  std::printf("  raw frames: ffmpeg (H.264)             %7.2f s CPU\n", Median(raw_ffmpeg));
-  std::printf("  raw frames: video cost / evaluation    %7.2fx\n", Median(raw_ratio));
-
+  if (!no_video) {
+    std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames), median of %d runs:\n", runs);
+    std::printf("  evaluation alone (20 s simulated)      %7.2f s CPU\n", Median(eval_cpus));
+    std::printf("  PNG frames: render + PNG               %7.2f s CPU\n", Median(png_frames));
+    std::printf("  PNG frames: ffmpeg (H.264)             %7.2f s CPU%s\n", Median(png_ffmpeg),
+                made_video ? "" : " (no ffmpeg: PNG sequence)");
+    std::printf("  PNG frames: video cost / evaluation    %7.2fx\n", Median(png_ratio));
+    std::printf("  raw frames: render + YUV + pipe        %7.2f s CPU\n", Median(raw_frames));
+    std::printf("    of which render                      %7.2f s CPU\n", Median(raw_render));
+    std::printf("  raw frames: ffmpeg (H.264)             %7.2f s CPU\n", Median(raw_ffmpeg));
+    std::printf("  raw frames: video cost / evaluation    %7.2fx\n", Median(raw_ratio));
+  }
   if (!yuv_path.empty()) {
     MakeVideo(renderer, follow, /*raw=*/true, yuv_path);
     std::printf("\nthe raw video's frames (yuv420p 320x240, 25 fps) in %s\n", yuv_path.c_str());
