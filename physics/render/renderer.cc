@@ -426,20 +426,29 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   if (options.grid) {
     batch.Clear();
     gl.LineWidth(1.0f);
-    auto lines = [&](double spacing, double extent, const Color& color) {
-      const double ox = std::round(cx / spacing) * spacing;
-      const double oy = std::round(cy / spacing) * spacing;
+    // Lines every `spacing` metres within `extent` of the centre, leaving
+    // out those on every `skip`-th line (drawn by the coarser grid anyway).
+    auto lines = [&](double spacing, double extent, int skip, const Color& color) {
+      const long long jx = std::llround(cx / spacing);
+      const long long jy = std::llround(cy / spacing);
+      const double ox = static_cast<double>(jx) * spacing;
+      const double oy = static_cast<double>(jy) * spacing;
       const int n = static_cast<int>(std::round(extent / spacing));
       const auto rgba = Rgba(color);
       for (int i = -n; i <= n; ++i) {
-        batch.Add(Eigen::Vector3d(ox + i * spacing, oy - extent, 0.0), rgba);
-        batch.Add(Eigen::Vector3d(ox + i * spacing, oy + extent, 0.0), rgba);
-        batch.Add(Eigen::Vector3d(ox - extent, oy + i * spacing, 0.0), rgba);
-        batch.Add(Eigen::Vector3d(ox + extent, oy + i * spacing, 0.0), rgba);
+        if (skip == 0 || (jx + i) % skip != 0) {
+          batch.Add(Eigen::Vector3d(ox + i * spacing, oy - extent, 0.0), rgba);
+          batch.Add(Eigen::Vector3d(ox + i * spacing, oy + extent, 0.0), rgba);
+        }
+        if (skip == 0 || (jy + i) % skip != 0) {
+          batch.Add(Eigen::Vector3d(ox - extent, oy + i * spacing, 0.0), rgba);
+          batch.Add(Eigen::Vector3d(ox + extent, oy + i * spacing, 0.0), rgba);
+        }
       }
     };
-    lines(kFineGridSpacing, kFineGridExtent, kGridFineColor);  // the 1 m lines over them
-    lines(1.0, kCoarseGridExtent, kGridCoarseColor);
+    const int per_metre = static_cast<int>(std::lround(1.0 / kFineGridSpacing));
+    lines(kFineGridSpacing, kFineGridExtent, per_metre, kGridFineColor);
+    lines(1.0, kCoarseGridExtent, 0, kGridCoarseColor);
     batch.Draw(gl, GL_LINES);
   }
   if (options.shadows && light.z() > 1e-3) {
