@@ -66,7 +66,7 @@ int TextWidth(std::string_view text, int k) {
 
 // ---- drawing helpers -----------------------------------------------------------
 
-// 8-bit channel of a colour component, as OpenGL converts it.
+// 8-bit channel of a colour component in [0, 1], rounded to nearest.
 uint8_t Channel(float c) {
   return static_cast<uint8_t>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f));
 }
@@ -96,7 +96,6 @@ class Batch {
     for (const Eigen::Vector3d* p : {&a, &b, &c, &a, &c, &d}) Add(*p, rgba);
   }
   void Clear() { vertices_.clear(); }
-  bool empty() const { return vertices_.empty(); }
 
   // Draws the batch as `mode` primitives; with `colors` false every vertex
   // takes the current colour (glColor) instead of its own.
