@@ -222,7 +222,8 @@ void AddBoxShadow(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vect
   for (int i = 0; i < 8; ++i) {
     const Eigen::Vector3d& c = corners[i];
     const double h = std::max(0.0, c.z());
-    points[i] = Eigen::Vector2d(c.x() - h * light.x() / light.z(), c.y() - h * light.y() / light.z());
+    points[i] = Eigen::Vector2d(c.x() - h * light.x() / light.z(),
+                                c.y() - h * light.y() / light.z());
   }
   // Andrew's monotone chain: counter-clockwise hull without collinear points.
   std::sort(points.begin(), points.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {

@@ -140,7 +140,8 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
         argv.emplace_back(a);
       }
     }
-    for (const char* a : {"-c:v", "libx264", "-preset", "ultrafast", "-crf", "20", "-threads", "1"}) {
+    for (const char* a :
+         {"-c:v", "libx264", "-preset", "ultrafast", "-crf", "20", "-threads", "1"}) {
       argv.emplace_back(a);
     }
     if (EndsWith(path_, ".mp4")) {

@@ -33,10 +33,10 @@ struct VideoOptions {
 /// `yuv`: BT.601 limited range (Y 16..235, Cb/Cr 16..240, what players assume
 /// for video without colour tags), Y = 16 + (65.481 R + 128.553 G + 24.966 B)
 /// / 255 and so on, in fixed point (within half a step of the formulas);
-/// each Cb/Cr sample from the mean of a 2x2 block. Odd sizes are padded to even with black (as H.264 4:2:0
-/// wants). `yuv` holds W·H luma bytes, then W/2·H/2 Cb, then Cr, W and H the
-/// even sizes. Alpha is ignored. Throws yamor::Error(INVALID_ARGUMENT) for an
-/// inconsistent image.
+/// each Cb/Cr sample from the mean of a 2x2 block. Odd sizes are padded to
+/// even with black (as H.264 4:2:0 wants). `yuv` holds W·H luma bytes, then
+/// W/2·H/2 Cb, then Cr, W and H the even sizes. Alpha is ignored. Throws
+/// yamor::Error(INVALID_ARGUMENT) for an inconsistent image.
 void RgbaToYuv420(const Image& image, std::vector<uint8_t>& yuv);
 
 /// What a VideoWriter produced.

@@ -282,8 +282,8 @@ int main(int argc, char** argv) {
   // frames piped to ffmpeg as RecordFrames' clients do; raw RGBA frames piped
   // to ffmpeg as an in-process writer can). Medians over the runs; each
   // run's ratio is against the evaluation measured in the same run.
-  std::vector<double> eval_cpus, png_frames, png_ffmpeg, png_ratio, raw_frames, raw_render, raw_ffmpeg,
-      raw_ratio;
+  std::vector<double> eval_cpus, png_frames, png_ffmpeg, png_ratio, raw_frames, raw_render,
+      raw_ffmpeg, raw_ratio;
   bool made_video = true;
   for (int run = 0; run < (no_video ? 0 : runs); ++run) {
     const double eval_cpu_start = ProcessCpuSeconds();

@@ -217,8 +217,9 @@ TEST_F(VideoTest, RawImagesOfOddSizeArePaddedAndKeepTheirColours) {
                   "stream=nb_read_frames,width,height -of csv=p=0 " + path),
             "64,48,5\n");
   // The middle pixel of the last frame, decoded to RGB.
-  const std::string rgb = Shell("ffmpeg -v error -i " + path +
-                                " -vf 'select=eq(n\\,4),format=rgb24,crop=1:1:30:20' -f rawvideo -pix_fmt rgb24 -");
+  const std::string rgb =
+      Shell("ffmpeg -v error -i " + path +
+            " -vf 'select=eq(n\\,4),format=rgb24,crop=1:1:30:20' -f rawvideo -pix_fmt rgb24 -");
   ASSERT_EQ(rgb.size(), 3u);
   EXPECT_NEAR(static_cast<uint8_t>(rgb[0]), 51, 4);
   EXPECT_NEAR(static_cast<uint8_t>(rgb[1]), 140, 4);
