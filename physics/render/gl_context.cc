@@ -6,6 +6,7 @@
 #include <EGL/eglext.h>
 #include <GL/osmesa.h>
 
+#include <array>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -58,6 +59,7 @@ struct OsMesaLibrary {
   decltype(&::OSMesaMakeCurrent) MakeCurrent = nullptr;
   decltype(&::OSMesaDestroyContext) DestroyContext = nullptr;
   decltype(&::OSMesaGetProcAddress) GetProcAddress = nullptr;
+  decltype(&::OSMesaPixelStore) PixelStore = nullptr;
 };
 
 // Loaded once per process and never unloaded (Mesa keeps threads and TLS).
@@ -77,6 +79,7 @@ const OsMesaLibrary& OsMesa() {
     sym(l.MakeCurrent, "OSMesaMakeCurrent");
     sym(l.DestroyContext, "OSMesaDestroyContext");
     sym(l.GetProcAddress, "OSMesaGetProcAddress");
+    sym(l.PixelStore, "OSMesaPixelStore");
     return l;
   }();
   return library;
@@ -88,7 +91,7 @@ class OsMesaContext final : public GlContext {
     if (!lib_.error.empty()) Unavailable(lib_.error);
     context_ = lib_.CreateContextExt(OSMESA_RGBA, 24, 8, 0, nullptr);
     if (context_ == nullptr) Unavailable("OSMesaCreateContextExt refused an RGBA context");
-    MakeCurrent(1, 1);
+    Bind(probe_.data(), 1, 1);
     ResolveFunctions(
         gl_,
         [](const char* name, void* library) -> void* {
@@ -103,23 +106,17 @@ class OsMesaContext final : public GlContext {
     if (context_ != nullptr) lib_.DestroyContext(context_);
   }
 
-  void MakeCurrent(int width, int height) override {
-    const std::size_t bytes = static_cast<std::size_t>(width) * height * 4;
-    if (buffer_.size() != bytes) buffer_.assign(bytes, 0);
-    if (!lib_.MakeCurrent(context_, buffer_.data(), GL_UNSIGNED_BYTE, width, height)) {
-      throw Error(StatusCode::kInternal, "OSMesaMakeCurrent failed for " +
-                                             std::to_string(width) + "x" + std::to_string(height));
-    }
+  void MakeCurrent(int width, int height, std::vector<uint8_t>& rgba) override {
+    // OSMesa draws into user memory: the frame's own pixels, so the frame
+    // needs no copy after glFinish.
+    rgba.resize(static_cast<std::size_t>(width) * height * 4);
+    Bind(rgba.data(), width, height);
   }
 
   void ReadPixels(int width, int height, std::vector<uint8_t>& rgba) override {
-    gl_.Finish();
-    // OSMesa's buffer is the frame, bottom row first.
-    const std::size_t row = static_cast<std::size_t>(width) * 4;
-    rgba.resize(row * height);
-    for (int y = 0; y < height; ++y) {
-      std::memcpy(&rgba[row * y], &buffer_[row * (height - 1 - y)], row);
-    }
+    YAMOR_CHECK(rgba.size() == static_cast<std::size_t>(width) * height * 4,
+                "ReadPixels: not the frame given to MakeCurrent");
+    gl_.Finish();  // OSMesa copies the frame into rgba
   }
 
   void Release() override {
@@ -131,9 +128,18 @@ class OsMesaContext final : public GlContext {
   GlLibrary library() const override { return GlLibrary::kOsMesa; }
 
  private:
+  void Bind(uint8_t* pixels, int width, int height) {
+    if (!lib_.MakeCurrent(context_, pixels, GL_UNSIGNED_BYTE, width, height)) {
+      throw Error(StatusCode::kInternal, "OSMesaMakeCurrent failed for " +
+                                             std::to_string(width) + "x" + std::to_string(height));
+    }
+    // Rows from the top, as images are.
+    lib_.PixelStore(OSMESA_Y_UP, 0);
+  }
+
   const OsMesaLibrary& lib_;
   OSMesaContext context_ = nullptr;
-  std::vector<uint8_t> buffer_;
+  std::array<uint8_t, 4> probe_{};  // the 1x1 target while the functions are resolved
 };
 
 // ---- EGL (surfaceless) -----------------------------------------------------------
@@ -245,7 +251,7 @@ class EglContext final : public GlContext {
     lib_.DestroyContext(lib_.display, context_);
   }
 
-  void MakeCurrent(int width, int height) override {
+  void MakeCurrent(int width, int height, std::vector<uint8_t>& /*rgba*/) override {
     Bind();
     if (framebuffer_ == 0) {
       gl_.GenFramebuffers(1, &framebuffer_);

@@ -40,9 +40,12 @@ class GlContext {
  public:
   virtual ~GlContext() = default;
   /// Makes the context current on this thread with a `width` x `height`
-  /// target (re-allocated when the size changed). Throws INTERNAL on failure.
-  virtual void MakeCurrent(int width, int height) = 0;
-  /// Reads the target (after drawing) into `rgba`, rows from top to bottom.
+  /// target (re-allocated when the size changed) whose pixels ReadPixels
+  /// puts into `rgba` (OSMesa draws into `rgba` itself: it must stay where it
+  /// is until ReadPixels). Throws INTERNAL on failure.
+  virtual void MakeCurrent(int width, int height, std::vector<uint8_t>& rgba) = 0;
+  /// Finishes drawing and leaves the frame in `rgba` (the vector given to
+  /// MakeCurrent), width x height x 4 bytes, rows from top to bottom.
   virtual void ReadPixels(int width, int height, std::vector<uint8_t>& rgba) = 0;
   /// Unbinds the context from the calling thread so another thread may make
   /// it current (EGL refuses a context current on another thread).

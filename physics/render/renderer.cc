@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <string>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -64,133 +66,220 @@ int TextWidth(std::string_view text, int k) {
 
 // ---- drawing helpers -----------------------------------------------------------
 
-class Painter {
+// 8-bit channel of a colour component in [0, 1], rounded to nearest.
+uint8_t Channel(float c) {
+  return static_cast<uint8_t>(std::lround(std::clamp(c, 0.0f, 1.0f) * 255.0f));
+}
+
+// One vertex of a batch: position and colour, interleaved as the vertex and
+// colour arrays read them.
+struct Vertex {
+  GLfloat xyz[3];
+  GLubyte rgba[4];
+};
+static_assert(sizeof(Vertex) == 16);
+
+// Vertices drawn by one glDrawArrays: the scene goes to Mesa as a handful of
+// batches (ground, grid, shadows, faces, edges, LED) instead of one
+// glBegin/glEnd per box, so Mesa's per-primitive state and vertex handling
+// runs a few times a frame rather than hundreds.
+class Batch {
  public:
-  Painter(const GlFunctions& gl, const View& view) : gl_(gl), view_(view) {}
-
-  void SetColor(const Color& c) { gl_.Color3f(c[0], c[1], c[2]); }
-
-  // The 8 corners of a box (local centre/size) placed at `pose`.
-  static std::array<Eigen::Vector3d, 8> Corners(const Eigen::Isometry3d& pose,
-                                                const Eigen::Vector3d& center,
-                                                const Eigen::Vector3d& size) {
-    std::array<Eigen::Vector3d, 8> corners;
-    for (int i = 0; i < 8; ++i) {
-      const Eigen::Vector3d sign((i & 1) ? 0.5 : -0.5, (i & 2) ? 0.5 : -0.5, (i & 4) ? 0.5 : -0.5);
-      corners[i] = pose * (center + size.cwiseProduct(sign));
-    }
-    return corners;
+  void Add(const Eigen::Vector3d& p, const std::array<GLubyte, 4>& rgba) {
+    vertices_.push_back(Vertex{{static_cast<GLfloat>(p.x()), static_cast<GLfloat>(p.y()),
+                                static_cast<GLfloat>(p.z())},
+                               {rgba[0], rgba[1], rgba[2], rgba[3]}});
   }
-
-  // Faces as corner indices (counter-clockwise seen from outside) and their
-  // outward normals in the box frame.
-  static constexpr std::array<std::array<int, 4>, 6> kFaces = {{
-      {0, 2, 6, 4}, {1, 5, 7, 3},  // -x, +x
-      {0, 4, 5, 1}, {2, 3, 7, 6},  // -y, +y
-      {0, 1, 3, 2}, {4, 6, 7, 5},  // -z, +z
-  }};
-
-  void Box(const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
-           const Eigen::Vector3d& size) {
-    const auto corners = Corners(pose, center, size);
-    const Eigen::Matrix3d r = pose.linear();
-    gl_.Begin(GL_QUADS);
-    for (int f = 0; f < 6; ++f) {
-      Eigen::Vector3d n = Eigen::Vector3d::Zero();
-      n[f / 2] = (f % 2 == 0) ? -1.0 : 1.0;
-      const Eigen::Vector3d wn = r * n;
-      gl_.Normal3d(wn.x(), wn.y(), wn.z());
-      for (int i : kFaces[f]) gl_.Vertex3d(corners[i].x(), corners[i].y(), corners[i].z());
-    }
-    gl_.End();
+  // A quad (corners in order) as two triangles.
+  void Quad(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+            const Eigen::Vector3d& d, const std::array<GLubyte, 4>& rgba) {
+    for (const Eigen::Vector3d* p : {&a, &b, &c, &a, &c, &d}) Add(*p, rgba);
   }
+  void Clear() { vertices_.clear(); }
 
-  void BoxEdges(const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
-                const Eigen::Vector3d& size) {
-    const auto corners = Corners(pose, center, size);
-    gl_.Begin(GL_LINES);
-    for (int i = 0; i < 8; ++i) {
-      for (int bit : {1, 2, 4}) {
-        if ((i & bit) != 0) continue;
-        const Eigen::Vector3d& a = corners[i];
-        const Eigen::Vector3d& b = corners[i | bit];
-        gl_.Vertex3d(a.x(), a.y(), a.z());
-        gl_.Vertex3d(b.x(), b.y(), b.z());
-      }
+  // Draws the batch as `mode` primitives; with `colors` false every vertex
+  // takes the current colour (glColor) instead of its own.
+  void Draw(const GlFunctions& gl, GLenum mode, bool colors = true) const {
+    if (vertices_.empty()) return;
+    gl.VertexPointer(3, GL_FLOAT, sizeof(Vertex), vertices_.data()->xyz);
+    if (colors) {
+      gl.EnableClientState(GL_COLOR_ARRAY);
+      gl.ColorPointer(4, GL_UNSIGNED_BYTE, sizeof(Vertex), vertices_.data()->rgba);
+    } else {
+      gl.DisableClientState(GL_COLOR_ARRAY);
     }
-    gl_.End();
-  }
-
-  // The box's shadow on the plane z = 0, cast along `light` (towards the light).
-  void BoxShadow(const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
-                 const Eigen::Vector3d& size, const Eigen::Vector3d& light) {
-    auto corners = Corners(pose, center, size);
-    for (Eigen::Vector3d& c : corners) {
-      const double h = std::max(0.0, c.z());
-      c = Eigen::Vector3d(c.x() - h * light.x() / light.z(), c.y() - h * light.y() / light.z(), 0.0);
-    }
-    gl_.Begin(GL_QUADS);
-    for (const auto& face : kFaces) {
-      for (int i : face) gl_.Vertex3d(corners[i].x(), corners[i].y(), 0.0);
-    }
-    gl_.End();
-  }
-
-  // ---- 2-D overlay (pixel coordinates, y down) ----
-
-  void BeginOverlay() {
-    Eigen::Matrix4d ortho = Eigen::Matrix4d::Identity();
-    ortho(0, 0) = 2.0 / view_.width;
-    ortho(0, 3) = -1.0;
-    ortho(1, 1) = -2.0 / view_.height;
-    ortho(1, 3) = 1.0;
-    gl_.MatrixMode(GL_PROJECTION);
-    gl_.LoadMatrixd(ortho.data());
-    gl_.MatrixMode(GL_MODELVIEW);
-    const Eigen::Matrix4d identity = Eigen::Matrix4d::Identity();
-    gl_.LoadMatrixd(identity.data());
-    gl_.Disable(GL_DEPTH_TEST);
-    gl_.Disable(GL_LIGHTING);
-    gl_.Disable(GL_BLEND);
-  }
-
-  // Fills pixels [x0, x1) x [y0, y1).
-  void Rect(int x0, int y0, int x1, int y1) {
-    gl_.Vertex2i(x0, y0);
-    gl_.Vertex2i(x0, y1);
-    gl_.Vertex2i(x1, y1);
-    gl_.Vertex2i(x1, y0);
-  }
-
-  // `text` with its top-left corner at (x, y), pixels k x k. Each run of
-  // set pixels in a glyph row is one quad (the same pixels as one quad per
-  // pixel, with fewer of llvmpipe's per-primitive setups).
-  void Text(std::string_view text, int x, int y, int k) {
-    gl_.Begin(GL_QUADS);
-    for (char c : text) {
-      if (const Glyph* g = FindGlyph(c)) {
-        for (int row = 0; row < 5; ++row) {
-          for (int col = 0; col < 3;) {
-            if (((g->rows[row] >> (2 - col)) & 1) == 0) {
-              ++col;
-              continue;
-            }
-            int end = col + 1;
-            while (end < 3 && ((g->rows[row] >> (2 - end)) & 1)) ++end;
-            Rect(x + col * k, y + row * k, x + end * k, y + (row + 1) * k);
-            col = end;
-          }
-        }
-      }
-      x += 4 * k;
-    }
-    gl_.End();
+    gl.DrawArrays(mode, 0, static_cast<GLsizei>(vertices_.size()));
   }
 
  private:
-  const GlFunctions& gl_;
-  const View& view_;
+  std::vector<Vertex> vertices_;
 };
+
+std::array<GLubyte, 4> Rgba(const Color& c) {
+  return {Channel(c[0]), Channel(c[1]), Channel(c[2]), 255};
+}
+
+// The 8 corners of a box (local centre/size) placed at `pose`.
+std::array<Eigen::Vector3d, 8> Corners(const Eigen::Isometry3d& pose,
+                                       const Eigen::Vector3d& center,
+                                       const Eigen::Vector3d& size) {
+  std::array<Eigen::Vector3d, 8> corners;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d sign((i & 1) ? 0.5 : -0.5, (i & 2) ? 0.5 : -0.5, (i & 4) ? 0.5 : -0.5);
+    corners[i] = pose * (center + size.cwiseProduct(sign));
+  }
+  return corners;
+}
+
+// Faces as corner indices (clockwise seen from outside); face f's
+// outward normal is axis f / 2 of the box frame, negative for even f.
+constexpr std::array<std::array<int, 4>, 6> kFaces = {{
+    {0, 2, 6, 4}, {1, 5, 7, 3},  // -x, +x
+    {0, 4, 5, 1}, {2, 3, 7, 6},  // -y, +y
+    {0, 1, 3, 2}, {4, 6, 7, 5},  // -z, +z
+}};
+
+// Soft lighting, computed per face on the CPU (faces are flat: one normal,
+// one colour): an ambient term, a key light from above (`key`, unit, towards
+// the light) and a dim fill light from the other side, Lambert diffuse
+// terms, as OpenGL's fixed-function lighting with these lights gives. Done
+// here rather than by OpenGL so the whole scene is one unlit pipeline state.
+class Lighting {
+ public:
+  Lighting(bool on, const Eigen::Vector3d& key)
+      : on_(on), key_(key), fill_(Eigen::Vector3d(-key.x(), -key.y(), 0.35).normalized()) {}
+
+  // The colour of a face of colour `c` whose outward normal is `n` (unit).
+  std::array<GLubyte, 4> Shade(const Color& c, const Eigen::Vector3d& n) const {
+    if (!on_) return Rgba(c);
+    const double k = std::max(0.0, n.dot(key_));
+    const double f = std::max(0.0, n.dot(fill_));
+    Color lit;
+    for (int i = 0; i < 3; ++i) {
+      lit[i] = static_cast<float>(c[i] * (kAmbient + kKeyDiffuse[i] * k + kFillDiffuse[i] * f));
+    }
+    return Rgba(lit);
+  }
+
+ private:
+  static constexpr double kAmbient = 0.38;
+  static constexpr std::array<double, 3> kKeyDiffuse = {0.62, 0.62, 0.60};
+  static constexpr std::array<double, 3> kFillDiffuse = {0.22, 0.22, 0.25};
+  bool on_;
+  Eigen::Vector3d key_;
+  Eigen::Vector3d fill_;
+};
+
+// Adds a box's six faces, each shaded by `lighting`.
+void AddBox(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
+            const Eigen::Vector3d& size, const Color& color, const Lighting& lighting) {
+  const auto corners = Corners(pose, center, size);
+  for (int f = 0; f < 6; ++f) {
+    const Eigen::Vector3d n = pose.linear().col(f / 2) * ((f % 2 == 0) ? -1.0 : 1.0);
+    const auto& face = kFaces[f];
+    batch.Quad(corners[face[0]], corners[face[1]], corners[face[2]], corners[face[3]],
+               lighting.Shade(color, n));
+  }
+}
+
+// Adds those of a box's twelve edges that can show from `eye`: an edge
+// between two faces turned away from the eye lies behind the box itself (a
+// closed convex solid) and would only fail the depth test.
+void AddBoxEdges(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
+                 const Eigen::Vector3d& size, const Color& color, const Eigen::Vector3d& eye) {
+  const auto corners = Corners(pose, center, size);
+  std::array<bool, 6> facing{};
+  for (int f = 0; f < 6; ++f) {
+    const Eigen::Vector3d n = pose.linear().col(f / 2) * ((f % 2 == 0) ? -1.0 : 1.0);
+    facing[f] = n.dot(eye - corners[kFaces[f][0]]) > 0.0;
+  }
+  const auto rgba = Rgba(color);
+  for (int i = 0; i < 8; ++i) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const int bit = 1 << axis;
+      if ((i & bit) != 0) continue;
+      // The edge along `axis` from corner i borders one face of each other axis,
+      // on the side corner i is on.
+      const int a = (axis + 1) % 3;
+      const int b = (axis + 2) % 3;
+      const int face_a = 2 * a + ((i >> a) & 1);
+      const int face_b = 2 * b + ((i >> b) & 1);
+      if (!facing[face_a] && !facing[face_b]) continue;
+      batch.Add(corners[i], rgba);
+      batch.Add(corners[i | bit], rgba);
+    }
+  }
+}
+
+// Adds the box's shadow on the plane z = 0, cast along `light` (towards the
+// light): the convex hull of its corners projected onto the ground (a box is
+// convex, so its shadow is the hull of its corners' shadows), as a triangle
+// fan: one polygon instead of six overlapping faces.
+void AddBoxShadow(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
+                  const Eigen::Vector3d& size, const Eigen::Vector3d& light) {
+  const auto corners = Corners(pose, center, size);
+  std::array<Eigen::Vector2d, 8> points;
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d& c = corners[i];
+    const double h = std::max(0.0, c.z());
+    points[i] = Eigen::Vector2d(c.x() - h * light.x() / light.z(),
+                                c.y() - h * light.y() / light.z());
+  }
+  // Andrew's monotone chain: counter-clockwise hull without collinear points.
+  std::sort(points.begin(), points.end(), [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
+  });
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
+  };
+  std::array<Eigen::Vector2d, 16> hull;
+  int n = 0;
+  for (int i = 0; i < 8; ++i) {  // lower hull
+    while (n >= 2 && cross(hull[n - 2], hull[n - 1], points[i]) <= 0) --n;
+    hull[n++] = points[i];
+  }
+  for (int i = 6, lower = n + 1; i >= 0; --i) {  // upper hull
+    while (n >= lower && cross(hull[n - 2], hull[n - 1], points[i]) <= 0) --n;
+    hull[n++] = points[i];
+  }
+  --n;  // the last point repeats the first
+  const std::array<GLubyte, 4> none = {0, 0, 0, 0};  // drawn with glColor
+  for (int i = 1; i + 1 < n; ++i) {
+    batch.Add(Eigen::Vector3d(hull[0].x(), hull[0].y(), 0.0), none);
+    batch.Add(Eigen::Vector3d(hull[i].x(), hull[i].y(), 0.0), none);
+    batch.Add(Eigen::Vector3d(hull[i + 1].x(), hull[i + 1].y(), 0.0), none);
+  }
+}
+
+// ---- 2-D overlay, drawn straight into the image (pixel coordinates, y down) ----
+
+// Fills pixels [x0, x1) x [y0, y1) (clipped to the image) with `color`.
+void FillRect(Image& image, int x0, int y0, int x1, int y1, const Color& color) {
+  x0 = std::max(x0, 0);
+  y0 = std::max(y0, 0);
+  x1 = std::min(x1, image.width);
+  y1 = std::min(y1, image.height);
+  const std::array<GLubyte, 4> rgba = Rgba(color);
+  for (int y = y0; y < y1; ++y) {
+    uint8_t* p = &image.rgba[(static_cast<std::size_t>(y) * image.width + x0) * 4];
+    for (int x = x0; x < x1; ++x, p += 4) std::memcpy(p, rgba.data(), 4);
+  }
+}
+
+// `text` with its top-left corner at (x, y), font pixels k x k.
+void DrawText(Image& image, std::string_view text, int x, int y, int k, const Color& color) {
+  for (char c : text) {
+    if (const Glyph* g = FindGlyph(c)) {
+      for (int row = 0; row < 5; ++row) {
+        for (int col = 0; col < 3; ++col) {
+          if (((g->rows[row] >> (2 - col)) & 1) == 0) continue;
+          FillRect(image, x + col * k, y + row * k, x + (col + 1) * k, y + (row + 1) * k, color);
+        }
+      }
+    }
+    x += 4 * k;
+  }
+}
 
 Eigen::Isometry3d ToIsometry(const Pose& pose) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
@@ -292,7 +381,12 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   ValidateFrameSize(width, height);
   ValidateScene(scene);
   const View view = ComputeView(camera, scene, width, height);
-  context_->MakeCurrent(width, height);
+  // Declared before the release below, so OSMesa's target (the image's
+  // pixels) outlives the context's binding even when drawing throws.
+  Image image;
+  image.width = width;
+  image.height = height;
+  context_->MakeCurrent(width, height, image.rgba);
   // Unbound again at the end, so the next frame may be drawn by another
   // thread (a daemon's renderers are shared by its gRPC threads).
   struct ReleaseAtEnd {
@@ -300,7 +394,6 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     ~ReleaseAtEnd() { context.Release(); }
   } release{*context_};
   const GlFunctions& gl = context_->gl();
-  Painter paint(gl, view);
   const Eigen::Vector3d light = LightDirection(scene);
 
   gl.Viewport(0, 0, width, height);
@@ -311,140 +404,140 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   gl.ShadeModel(GL_FLAT);
   gl.Disable(GL_CULL_FACE);
   gl.Disable(GL_DITHER);
+  gl.Disable(GL_LIGHTING);  // lit on the CPU (Lighting)
   gl.MatrixMode(GL_PROJECTION);
   gl.LoadMatrixd(view.projection.data());
   gl.MatrixMode(GL_MODELVIEW);
   gl.LoadMatrixd(view.view.data());
+  gl.EnableClientState(GL_VERTEX_ARRAY);
 
   // The ground and everything on it, in drawing order without depth test:
   // the objects drawn after it are never hidden by it.
+  Batch batch;
   gl.Disable(GL_DEPTH_TEST);
   gl.DepthMask(GL_FALSE);
-  gl.Disable(GL_LIGHTING);
   const double cx = std::round(view.target.x() / kFineGridSpacing) * kFineGridSpacing;
   const double cy = std::round(view.target.y() / kFineGridSpacing) * kFineGridSpacing;
-  paint.SetColor(kGroundColor);
-  gl.Begin(GL_QUADS);
-  gl.Vertex3d(cx - kGroundExtent, cy - kGroundExtent, 0.0);
-  gl.Vertex3d(cx + kGroundExtent, cy - kGroundExtent, 0.0);
-  gl.Vertex3d(cx + kGroundExtent, cy + kGroundExtent, 0.0);
-  gl.Vertex3d(cx - kGroundExtent, cy + kGroundExtent, 0.0);
-  gl.End();
+  batch.Quad(Eigen::Vector3d(cx - kGroundExtent, cy - kGroundExtent, 0.0),
+             Eigen::Vector3d(cx + kGroundExtent, cy - kGroundExtent, 0.0),
+             Eigen::Vector3d(cx + kGroundExtent, cy + kGroundExtent, 0.0),
+             Eigen::Vector3d(cx - kGroundExtent, cy + kGroundExtent, 0.0), Rgba(kGroundColor));
+  batch.Draw(gl, GL_TRIANGLES);
   if (options.grid) {
+    batch.Clear();
     gl.LineWidth(1.0f);
-    auto lines = [&](double spacing, double extent, const Color& color) {
-      const double ox = std::round(cx / spacing) * spacing;
-      const double oy = std::round(cy / spacing) * spacing;
+    // Lines every `spacing` metres within `extent` of the centre, leaving
+    // out those on every `skip`-th line (drawn by the coarser grid anyway).
+    auto lines = [&](double spacing, double extent, int skip, const Color& color) {
+      const long long jx = std::llround(cx / spacing);
+      const long long jy = std::llround(cy / spacing);
+      const double ox = static_cast<double>(jx) * spacing;
+      const double oy = static_cast<double>(jy) * spacing;
       const int n = static_cast<int>(std::round(extent / spacing));
-      paint.SetColor(color);
-      gl.Begin(GL_LINES);
+      const auto rgba = Rgba(color);
       for (int i = -n; i <= n; ++i) {
-        gl.Vertex3d(ox + i * spacing, oy - extent, 0.0);
-        gl.Vertex3d(ox + i * spacing, oy + extent, 0.0);
-        gl.Vertex3d(ox - extent, oy + i * spacing, 0.0);
-        gl.Vertex3d(ox + extent, oy + i * spacing, 0.0);
+        if (skip == 0 || (jx + i) % skip != 0) {
+          batch.Add(Eigen::Vector3d(ox + i * spacing, oy - extent, 0.0), rgba);
+          batch.Add(Eigen::Vector3d(ox + i * spacing, oy + extent, 0.0), rgba);
+        }
+        if (skip == 0 || (jy + i) % skip != 0) {
+          batch.Add(Eigen::Vector3d(ox - extent, oy + i * spacing, 0.0), rgba);
+          batch.Add(Eigen::Vector3d(ox + extent, oy + i * spacing, 0.0), rgba);
+        }
       }
-      gl.End();
     };
-    lines(kFineGridSpacing, kFineGridExtent, kGridFineColor);
-    lines(1.0, kCoarseGridExtent, kGridCoarseColor);
+    const int per_metre = static_cast<int>(std::lround(1.0 / kFineGridSpacing));
+    lines(kFineGridSpacing, kFineGridExtent, per_metre, kGridFineColor);
+    lines(1.0, kCoarseGridExtent, 0, kGridCoarseColor);
+    batch.Draw(gl, GL_LINES);
   }
   if (options.shadows && light.z() > 1e-3) {
-    // Each pixel darkened once however many shadow faces cover it.
+    batch.Clear();
+    for (const SceneModule& m : scene.modules) {
+      const Eigen::Isometry3d body = ToIsometry(m.body);
+      const Eigen::Isometry3d handle = ToIsometry(m.handle);
+      for (const ShapeBox& box : scene.shape) {
+        AddBoxShadow(batch, box.part == ShapePart::kBody ? body : handle, box.center, box.size,
+                     light);
+      }
+    }
+    for (const StaticBox& box : scene.boxes) {
+      AddBoxShadow(batch, ToIsometry(box.pose), Eigen::Vector3d::Zero(), box.size, light);
+    }
+    // Each pixel darkened once however many shadows cover it.
     gl.Enable(GL_STENCIL_TEST);
     gl.StencilFunc(GL_EQUAL, 0, 0xff);
     gl.StencilOp(GL_KEEP, GL_KEEP, GL_INCR);
     gl.Enable(GL_BLEND);
-    gl.BlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    // Alpha stays 1 (frames are opaque, with no pass over them to fix it).
+    gl.BlendFuncSeparate(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA, GL_ZERO, GL_ONE);
     gl.Color4f(0.0f, 0.0f, 0.0f, kShadowAlpha);
-    for (const SceneModule& m : scene.modules) {
-      const Eigen::Isometry3d body = ToIsometry(m.body);
-      const Eigen::Isometry3d handle = ToIsometry(m.handle);
-      for (const ShapeBox& box : scene.shape) {
-        paint.BoxShadow(box.part == ShapePart::kBody ? body : handle, box.center, box.size, light);
-      }
-    }
-    for (const StaticBox& box : scene.boxes) {
-      paint.BoxShadow(ToIsometry(box.pose), Eigen::Vector3d::Zero(), box.size, light);
-    }
+    batch.Draw(gl, GL_TRIANGLES, /*colors=*/false);
     gl.Disable(GL_BLEND);
     gl.Disable(GL_STENCIL_TEST);
   }
 
-  // Solid objects.
+  // Solid objects: every face in one batch, then every edge in another.
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_LEQUAL);
   gl.DepthMask(GL_TRUE);
-  if (options.lighting) {
-    const GLfloat ambient[] = {0.38f, 0.38f, 0.38f, 1.0f};
-    const GLfloat key_position[] = {static_cast<GLfloat>(light.x()), static_cast<GLfloat>(light.y()),
-                                    static_cast<GLfloat>(light.z()), 0.0f};
-    const GLfloat key_diffuse[] = {0.62f, 0.62f, 0.60f, 1.0f};
-    const GLfloat fill_position[] = {static_cast<GLfloat>(-light.x()),
-                                     static_cast<GLfloat>(-light.y()), 0.35f, 0.0f};
-    const GLfloat fill_diffuse[] = {0.22f, 0.22f, 0.25f, 1.0f};
-    const GLfloat black[] = {0.0f, 0.0f, 0.0f, 1.0f};
-    gl.LightModelfv(GL_LIGHT_MODEL_AMBIENT, ambient);
-    gl.Lightfv(GL_LIGHT0, GL_POSITION, key_position);  // world frame: the view is loaded
-    gl.Lightfv(GL_LIGHT0, GL_DIFFUSE, key_diffuse);
-    gl.Lightfv(GL_LIGHT0, GL_AMBIENT, black);
-    gl.Lightfv(GL_LIGHT0, GL_SPECULAR, black);
-    gl.Lightfv(GL_LIGHT1, GL_POSITION, fill_position);
-    gl.Lightfv(GL_LIGHT1, GL_DIFFUSE, fill_diffuse);
-    gl.Lightfv(GL_LIGHT1, GL_AMBIENT, black);
-    gl.Lightfv(GL_LIGHT1, GL_SPECULAR, black);
-    gl.Materialfv(GL_FRONT_AND_BACK, GL_SPECULAR, black);
-    gl.Enable(GL_LIGHT0);
-    gl.Enable(GL_LIGHT1);
-    gl.ColorMaterial(GL_FRONT_AND_BACK, GL_AMBIENT_AND_DIFFUSE);
-    gl.Enable(GL_COLOR_MATERIAL);
-  }
-  auto faces = [&](auto&& draw_all) {
-    if (options.lighting) gl.Enable(GL_LIGHTING);
+  const Lighting lighting(options.lighting, light);
+  batch.Clear();
+  Batch edges;
+  for (const StaticBox& box : scene.boxes) {
+    const Eigen::Isometry3d pose = ToIsometry(box.pose);
+    AddBox(batch, pose, Eigen::Vector3d::Zero(), box.size, kStaticBoxColor, lighting);
     if (options.edges) {
-      gl.Enable(GL_POLYGON_OFFSET_FILL);
-      gl.PolygonOffset(1.0f, 1.0f);
+      AddBoxEdges(edges, pose, Eigen::Vector3d::Zero(), box.size, Scale(kStaticBoxColor, 0.55f),
+                  view.eye);
     }
-    draw_all(/*edges=*/false);
-    gl.Disable(GL_POLYGON_OFFSET_FILL);
-    gl.Disable(GL_LIGHTING);
-    if (options.edges) draw_all(/*edges=*/true);
-  };
-  faces([&](bool edges) {
-    for (const StaticBox& box : scene.boxes) {
-      paint.SetColor(edges ? Scale(kStaticBoxColor, 0.55f) : kStaticBoxColor);
-      const Eigen::Isometry3d pose = ToIsometry(box.pose);
-      if (edges) {
-        paint.BoxEdges(pose, Eigen::Vector3d::Zero(), box.size);
-      } else {
-        paint.Box(pose, Eigen::Vector3d::Zero(), box.size);
+  }
+  for (const SceneModule& m : scene.modules) {
+    const Eigen::Isometry3d body = ToIsometry(m.body);
+    const Eigen::Isometry3d handle = ToIsometry(m.handle);
+    for (const ShapeBox& box : scene.shape) {
+      const bool is_body = box.part == ShapePart::kBody;
+      const Color color = is_body ? BodyColor(m) : HandleColor(m);
+      AddBox(batch, is_body ? body : handle, box.center, box.size, color, lighting);
+      if (options.edges) {
+        AddBoxEdges(edges, is_body ? body : handle, box.center, box.size, Scale(color, 0.45f),
+                    view.eye);
       }
     }
-    for (const SceneModule& m : scene.modules) {
-      const Eigen::Isometry3d body = ToIsometry(m.body);
-      const Eigen::Isometry3d handle = ToIsometry(m.handle);
-      for (const ShapeBox& box : scene.shape) {
-        const bool is_body = box.part == ShapePart::kBody;
-        const Color color = is_body ? BodyColor(m) : HandleColor(m);
-        paint.SetColor(edges ? Scale(color, 0.45f) : color);
-        if (edges) {
-          paint.BoxEdges(is_body ? body : handle, box.center, box.size);
-        } else {
-          paint.Box(is_body ? body : handle, box.center, box.size);
-        }
-      }
-    }
-  });
+  }
+  if (options.edges) {
+    // Faces pushed back a little, so their own edges win the depth test.
+    gl.Enable(GL_POLYGON_OFFSET_FILL);
+    gl.PolygonOffset(1.0f, 1.0f);
+  }
+  // Boxes are closed and convex: their back faces are always hidden by their
+  // front faces, so they are not rasterised at all.
+  gl.Enable(GL_CULL_FACE);
+  gl.CullFace(GL_BACK);
+  gl.FrontFace(GL_CW);  // kFaces' winding
+  batch.Draw(gl, GL_TRIANGLES);
+  gl.Disable(GL_POLYGON_OFFSET_FILL);
+  edges.Draw(gl, GL_LINES);
   // The LED glows: unlit.
   if (const SceneModule* central = scene.Central()) {
-    paint.SetColor(kLedColor);
-    paint.Box(ToIsometry(central->body), scene.led,
-              Eigen::Vector3d(kLedSize, kLedSize, kLedSize * 0.75));
+    batch.Clear();
+    AddBox(batch, ToIsometry(central->body), scene.led,
+           Eigen::Vector3d(kLedSize, kLedSize, kLedSize * 0.75), kLedColor,
+           Lighting(/*on=*/false, light));
+    batch.Draw(gl, GL_TRIANGLES);
+  }
+  gl.Disable(GL_CULL_FACE);
+  gl.DisableClientState(GL_COLOR_ARRAY);
+  gl.DisableClientState(GL_VERTEX_ARRAY);
+
+  context_->ReadPixels(width, height, image.rgba);
+  if (const GLenum error = gl.GetError(); error != GL_NO_ERROR) {
+    throw Error(StatusCode::kInternal, fmt::format("OpenGL error 0x{:04x} while rendering", error));
   }
 
-  // Overlay: ids next to the modules, then the legend strip.
+  // Overlay, drawn into the image (a few hundred pixels of flat colour, far
+  // cheaper than OpenGL quads): ids next to the modules, then the legend strip.
   const int k = std::max(1, height / 240);
-  paint.BeginOverlay();
   if (options.labels) {
     for (const SceneModule& m : scene.modules) {
       const std::optional<Eigen::Vector2d> p = Project(view, m.body.position);
@@ -453,15 +546,13 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
       const int w = TextWidth(text, k) + 2 * k;
       const int h = 7 * k;
       // Up and right of the body's centre, so the centre itself stays visible.
-      const int x = static_cast<int>(std::floor(p->x())) + 3 * k;
-      const int y = static_cast<int>(std::floor(p->y())) - 3 * k - h;
-      if (x >= width || y >= height || x + w <= 0 || y + h <= 0) continue;
-      paint.SetColor(Scale(BodyColor(m), 0.35f));
-      gl.Begin(GL_QUADS);
-      paint.Rect(x, y, x + w, y + h);
-      gl.End();
-      paint.SetColor(kTextColor);
-      paint.Text(text, x + k, y + k, k);
+      const double px = std::floor(p->x()) + 3 * k;
+      const double py = std::floor(p->y()) - 3 * k - h;
+      if (px >= width || py >= height || px + w <= 0 || py + h <= 0) continue;
+      const int x = static_cast<int>(px);
+      const int y = static_cast<int>(py);
+      FillRect(image, x, y, x + w, y + h, Scale(BodyColor(m), 0.35f));
+      DrawText(image, text, x + k, y + k, k, kTextColor);
     }
   }
   if (options.legend && !scene.modules.empty()) {
@@ -487,34 +578,16 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     }
     const int rows = entries.empty() ? 1 : entries.back().row + 1;
     const int top = height - rows * row_height - k;
-    paint.SetColor(kLegendColor);
-    gl.Begin(GL_QUADS);
-    paint.Rect(0, top, width, height);
-    gl.End();
+    FillRect(image, 0, top, width, height, kLegendColor);
     for (std::size_t i = 0; i < scene.modules.size(); ++i) {
       const SceneModule& m = scene.modules[i];
       const int ex = entries[i].x;
       const int ey = top + k + entries[i].row * row_height;
-      paint.SetColor(BodyColor(m));
-      gl.Begin(GL_QUADS);
-      paint.Rect(ex, ey, ex + 5 * k, ey + 5 * k);
-      gl.End();
-      paint.SetColor(m.central ? kLedColor : kTextColor);
-      paint.Text(std::to_string(m.id), ex + 6 * k, ey, k);
+      FillRect(image, ex, ey, ex + 5 * k, ey + 5 * k, BodyColor(m));
+      DrawText(image, std::to_string(m.id), ex + 6 * k, ey, k, m.central ? kLedColor : kTextColor);
     }
-    paint.SetColor(kTextColor);
-    paint.Text(time, width - time_width + 2 * k, top + k, k);
+    DrawText(image, time, width - time_width + 2 * k, top + k, k, kTextColor);
   }
-
-  Image image;
-  image.width = width;
-  image.height = height;
-  context_->ReadPixels(width, height, image.rgba);
-  if (const GLenum error = gl.GetError(); error != GL_NO_ERROR) {
-    throw Error(StatusCode::kInternal, fmt::format("OpenGL error 0x{:04x} while rendering", error));
-  }
-  // Frames are opaque (blending leaves partial alpha behind).
-  for (std::size_t i = 3; i < image.rgba.size(); i += 4) image.rgba[i] = 255;
   return image;
 }
 

@@ -8,6 +8,14 @@
 // above, so a part touching the ground meets its shadow), the module ids
 // next to the modules and a legend strip (colour, id, simulated time).
 // The same scene, camera, size and options give the same bytes.
+//
+// Cheap enough to film every evaluation (docs/benchmarks.md, "Rendering"):
+// the scene goes to OpenGL as six vertex-array batches (ground, grid,
+// shadows, faces, edges, LED) with no GL lighting (faces are flat, so each
+// face's soft lighting is computed here), each box's shadow is one convex
+// polygon, back faces and hidden edges are skipped, the ids and the legend
+// are written straight into the image, and OSMesa draws into the image's
+// own pixels.
 #pragma once
 
 #include <memory>

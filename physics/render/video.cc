@@ -35,7 +35,66 @@ bool EndsWith(const std::string& text, const std::string& suffix) {
 
 std::string FormatRate(double rate) { return fmt::format("{}", rate); }
 
+// BT.601 limited range in fixed point (the formulas' coefficients / 255 x
+// 2^16, rounded): the luma of one pixel, and Cb/Cr from the sums of 4
+// pixels' channels. The Cb and Cr coefficients sum to 0: greys stay grey.
+inline uint8_t Luma(const uint8_t* p) {
+  return static_cast<uint8_t>(((16829 * p[0] + 33039 * p[1] + 6416 * p[2] + 32768) >> 16) + 16);
+}
+inline uint8_t Cb(int r4, int g4, int b4) {
+  return static_cast<uint8_t>(((-9714 * r4 - 19070 * g4 + 28784 * b4 + 131072) >> 18) + 128);
+}
+inline uint8_t Cr(int r4, int g4, int b4) {
+  return static_cast<uint8_t>(((28784 * r4 - 24103 * g4 - 4681 * b4 + 131072) >> 18) + 128);
+}
+
+int Even(int n) { return n + (n & 1); }
+
 }  // namespace
+
+void RgbaToYuv420(const Image& image, std::vector<uint8_t>& yuv) {
+  const int w = image.width;
+  const int h = image.height;
+  if (w < 1 || h < 1 || image.rgba.size() != static_cast<std::size_t>(w) * h * 4) {
+    throw Error(StatusCode::kInvalidArgument,
+                fmt::format("RgbaToYuv420: image {}x{} has {} bytes, not width x height x 4", w, h,
+                            image.rgba.size()));
+  }
+  const int ew = Even(w);
+  const int eh = Even(h);
+  const std::size_t luma = static_cast<std::size_t>(ew) * eh;
+  const std::size_t chroma = luma / 4;
+  yuv.resize(luma + 2 * chroma);
+  uint8_t* y_plane = yuv.data();
+  uint8_t* cb_plane = y_plane + luma;
+  uint8_t* cr_plane = cb_plane + chroma;
+  // Padding (odd sizes) is black, as ffmpeg's pad filter made it.
+  const std::vector<uint8_t> black(static_cast<std::size_t>(ew) * 4, 0);
+  for (int y = 0; y < eh; y += 2) {
+    const uint8_t* row0 = &image.rgba[static_cast<std::size_t>(y) * w * 4];
+    const uint8_t* row1 = y + 1 < h ? row0 + static_cast<std::size_t>(w) * 4 : black.data();
+    uint8_t* y0 = y_plane + static_cast<std::size_t>(y) * ew;
+    uint8_t* y1 = y0 + ew;
+    uint8_t* cb = cb_plane + static_cast<std::size_t>(y / 2) * (ew / 2);
+    uint8_t* cr = cr_plane + static_cast<std::size_t>(y / 2) * (ew / 2);
+    for (int x = 0; x < ew; x += 2) {
+      const uint8_t* a = row0 + x * 4;
+      const uint8_t* c = row1 + x * 4;
+      // The pixel right of the last column of an odd width is padding.
+      const uint8_t* b = x + 1 < w ? a + 4 : black.data();
+      const uint8_t* d = x + 1 < w ? c + 4 : black.data();
+      y0[x] = Luma(a);
+      y0[x + 1] = Luma(b);
+      y1[x] = Luma(c);
+      y1[x + 1] = Luma(d);
+      const int r4 = a[0] + b[0] + c[0] + d[0];
+      const int g4 = a[1] + b[1] + c[1] + d[1];
+      const int b4 = a[2] + b[2] + c[2] + d[2];
+      cb[x / 2] = Cb(r4, g4, b4);
+      cr[x / 2] = Cr(r4, g4, b4);
+    }
+  }
+}
 
 VideoWriter::VideoWriter(std::string path, VideoOptions options)
     : path_(std::move(path)), options_(std::move(options)) {
@@ -54,9 +113,11 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
 
   std::vector<std::string> argv = {options_.ffmpeg, "-hide_banner", "-loglevel", "error", "-y"};
   if (raw) {
+    // Already 4:2:0 at even sizes (RgbaToYuv420): ffmpeg converts nothing.
     for (const std::string& a :
-         {std::string("-f"), std::string("rawvideo"), std::string("-pix_fmt"), std::string("rgba"),
-          std::string("-s"), fmt::format("{}x{}", options_.raw_width, options_.raw_height),
+         {std::string("-f"), std::string("rawvideo"), std::string("-pix_fmt"),
+          std::string("yuv420p"), std::string("-s"),
+          fmt::format("{}x{}", Even(options_.raw_width), Even(options_.raw_height)),
           std::string("-framerate"), FormatRate(options_.frame_rate), std::string("-i"),
           std::string("-")}) {
       argv.push_back(a);
@@ -71,11 +132,16 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
   }
   if (EndsWith(path_, ".mp4") || EndsWith(path_, ".mov") || EndsWith(path_, ".mkv")) {
     // H.264 in 4:2:0 wants even sizes: an odd width or height gets one
-    // more column or row. One encoder thread: small frames gain nothing
-    // from x264's frame threads but pay for their synchronisation (and the
-    // CPU is better spent on other evaluations).
-    for (const char* a : {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-c:v", "libx264", "-preset",
-                          "ultrafast", "-crf", "20", "-pix_fmt", "yuv420p", "-threads", "1"}) {
+    // more column or row (raw frames come padded). One encoder thread: small
+    // frames gain nothing from x264's frame threads but pay for their
+    // synchronisation (and the CPU is better spent on other evaluations).
+    if (!raw) {
+      for (const char* a : {"-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", "-pix_fmt", "yuv420p"}) {
+        argv.emplace_back(a);
+      }
+    }
+    for (const char* a :
+         {"-c:v", "libx264", "-preset", "ultrafast", "-crf", "20", "-threads", "1"}) {
       argv.emplace_back(a);
     }
     if (EndsWith(path_, ".mp4")) {
@@ -120,6 +186,10 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
                                FormatRate(options_.frame_rate), result_.pattern, path_);
   } else {
     pipe_ = fds[1];
+    // A raw frame is 115 KiB at 320x240: a pipe that holds several frames
+    // saves ffmpeg and this process a wake-up every 64 KiB (best effort:
+    // the system may cap the size).
+    fcntl(pipe_, F_SETPIPE_SZ, 1 << 20);
     result_.video = true;
     result_.path = path_;
   }
@@ -193,7 +263,8 @@ void VideoWriter::AddImage(const Image& image) {
     WriteSequenceFile(EncodePng(image));
     return;
   }
-  WriteToFfmpeg(image.rgba.data(), image.rgba.size());
+  RgbaToYuv420(image, yuv_);
+  WriteToFfmpeg(yuv_.data(), yuv_.size());
   ++result_.frames;
 }
 

@@ -1,12 +1,14 @@
-// Videos from rendered frames: PNG frames piped into the `ffmpeg`
-// command-line tool (H.264 in an MP4 for *.mp4), or, on a machine without
-// ffmpeg, a numbered PNG sequence next to the requested file.
+// Videos from rendered frames: PNG frames, or RGBA images converted here to
+// YUV 4:2:0, piped into the `ffmpeg` command-line tool (H.264 in an MP4 for
+// *.mp4), or, on a machine without ffmpeg, a numbered PNG sequence next to
+// the requested file.
 #pragma once
 
 #include <cstdint>
 #include <span>
 #include <string>
 #include <sys/types.h>
+#include <vector>
 
 #include "physics/render/image.h"
 
@@ -18,12 +20,24 @@ struct VideoOptions {
   /// The ffmpeg program (looked up in PATH); empty: $YAMOR_FFMPEG, else "ffmpeg".
   std::string ffmpeg;
   /// Both > 0: frames come as RGBA images of this size (AddImage) and go to
-  /// ffmpeg raw (`-f rawvideo`), with no PNG encoded or decoded on the way:
-  /// for frames rendered in the writing process. Without ffmpeg, AddImage
-  /// writes the PNG sequence itself. 0: frames come as PNG bytes (AddFrame).
+  /// ffmpeg raw, converted here to YUV 4:2:0 (RgbaToYuv420; `-f rawvideo
+  /// -pix_fmt yuv420p`), with no PNG encoded or decoded and no colour
+  /// conversion in ffmpeg on the way: for frames rendered in the writing
+  /// process. Without ffmpeg, AddImage writes the PNG sequence itself.
+  /// 0: frames come as PNG bytes (AddFrame).
   int raw_width = 0;
   int raw_height = 0;  ///< See raw_width.
 };
+
+/// Converts an opaque RGBA image to planar YUV 4:2:0 (ffmpeg's yuv420p) in
+/// `yuv`: BT.601 limited range (Y 16..235, Cb/Cr 16..240, what players assume
+/// for video without colour tags), Y = 16 + (65.481 R + 128.553 G + 24.966 B)
+/// / 255 and so on, in fixed point (within half a step of the formulas);
+/// each Cb/Cr sample from the mean of a 2x2 block. Odd sizes are padded to
+/// even with black (as H.264 4:2:0 wants). `yuv` holds W·H luma bytes, then
+/// W/2·H/2 Cb, then Cr, W and H the even sizes. Alpha is ignored. Throws
+/// yamor::Error(INVALID_ARGUMENT) for an inconsistent image.
+void RgbaToYuv420(const Image& image, std::vector<uint8_t>& yuv);
 
 /// What a VideoWriter produced.
 struct VideoResult {
@@ -75,6 +89,7 @@ class VideoWriter {
   int pipe_ = -1;           // ffmpeg's stdin
   std::string log_path_;    // ffmpeg's stderr
   std::string sequence_stem_;  // "dir/out" of dir/out-000000.png (no ffmpeg)
+  std::vector<uint8_t> yuv_;   // raw mode: the frame being piped
   bool finished_ = false;
   VideoResult result_;
 };

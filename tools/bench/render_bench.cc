@@ -5,10 +5,12 @@
 // against the 20-s evaluation it shows. A plain program printing a table
 // (tools/bench/run.sh's plain_programs).
 //
-//   render_bench [--frames N] [--runs N] [--video-only] [--breakdown] [--png DIR]
-//                [--backend osmesa|egl]
+//   render_bench [--frames N] [--runs N] [--video-only | --no-video] [--breakdown] [--png DIR]
+//                [--yuv FILE] [--backend osmesa|egl]
 //
-// --png DIR also writes a sample frame of each robot and camera there.
+// --png DIR also writes a sample frame of each robot and camera there;
+// --yuv FILE the raw video's 500 frames as ffmpeg reads them (yuv420p,
+// 320x240), to time encoders alone.
 // CPU times are the whole process's (llvmpipe rasterises on its own
 // threads) plus, for the video, ffmpeg's (a child process).
 #include <sys/resource.h>
@@ -124,19 +126,24 @@ double Median(std::vector<double> values) {
 
 struct VideoCost {
   double frames_cpu = 0;  // this process: rendering (+ PNG), the simulation left out
+  double render_cpu = 0;  // of which Render() alone
   double ffmpeg_cpu = 0;  // the ffmpeg child
   bool video = false;     // ffmpeg ran
 };
 
 // 500 frames of the quadruped walking from t = 0, 0.04 s apart, into an
 // MP4: PNG frames (`raw` false) or raw RGBA frames.
-VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw) {
+VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw,
+                    const std::string& yuv_path = {}) {
   auto robot = Quadruped(0.0);
   std::vector<yamor::snp::Frame> out;
   const std::string path = (std::filesystem::temp_directory_path() /
                             ("render_bench_" + std::to_string(getpid()) + ".mp4"))
                                .string();
   VideoCost cost;
+  std::ofstream yuv_out;
+  if (!yuv_path.empty()) yuv_out.open(yuv_path, std::ios::binary | std::ios::trunc);
+  std::vector<uint8_t> yuv;
   const double children_start = ChildrenCpuSeconds();
   yamor::render::VideoResult video;
   {
@@ -150,12 +157,18 @@ VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw) {
       const double t0 = ProcessCpuSeconds();
       const yamor::render::Image image =
           renderer.Render(yamor::bridge::SceneOf(robot->world()), camera, 320, 240);
+      cost.render_cpu += ProcessCpuSeconds() - t0;
       if (raw) {
         writer.AddImage(image);
       } else {
         writer.AddFrame(yamor::render::EncodePng(image, true));
       }
       cost.frames_cpu += ProcessCpuSeconds() - t0;
+      if (yuv_out.is_open()) {
+        yamor::render::RgbaToYuv420(image, yuv);
+        yuv_out.write(reinterpret_cast<const char*>(yuv.data()),
+                      static_cast<std::streamsize>(yuv.size()));
+      }
       robot->Advance(0.04, out);
     }
     video = writer.Finish();
@@ -189,9 +202,13 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "Frames per measurement");
   app.add_option("--runs", runs, "Runs of the 20-s video measurement (medians)")->check(CLI::PositiveNumber);
   app.add_flag("--video-only", video_only, "Only the 20-s video measurement");
+  bool no_video = false;
+  app.add_flag("--no-video", no_video, "Leave out the 20-s video measurement");
   bool breakdown = false;
   app.add_flag("--breakdown", breakdown, "Also the CPU per frame with each part switched off");
   app.add_option("--png", png_dir, "Also write sample frames into this directory");
+  std::string yuv_path;
+  app.add_option("--yuv", yuv_path, "Also write the raw video's frames (yuv420p) to this file");
   app.add_option("--backend", backend_name, "auto, osmesa or egl")
       ->check(CLI::IsMember({"auto", "osmesa", "egl"}));
   CLI11_PARSE(app, argc, argv);
@@ -265,10 +282,10 @@ int main(int argc, char** argv) {
   // frames piped to ffmpeg as RecordFrames' clients do; raw RGBA frames piped
   // to ffmpeg as an in-process writer can). Medians over the runs; each
   // run's ratio is against the evaluation measured in the same run.
-  std::vector<double> eval_cpus, png_frames, png_ffmpeg, png_ratio, raw_frames, raw_ffmpeg,
-      raw_ratio;
+  std::vector<double> eval_cpus, png_frames, png_ffmpeg, png_ratio, raw_frames, raw_render,
+      raw_ffmpeg, raw_ratio;
   bool made_video = true;
-  for (int run = 0; run < runs; ++run) {
+  for (int run = 0; run < (no_video ? 0 : runs); ++run) {
     const double eval_cpu_start = ProcessCpuSeconds();
     const auto evaluated = Quadruped(20.0);
     const double eval_cpu = ProcessCpuSeconds() - eval_cpu_start;
@@ -277,20 +294,27 @@ int main(int argc, char** argv) {
       const VideoCost cost = MakeVideo(renderer, follow, raw);
       made_video = made_video && cost.video;
       (raw ? raw_frames : png_frames).push_back(cost.frames_cpu);
+      if (raw) raw_render.push_back(cost.render_cpu);
       (raw ? raw_ffmpeg : png_ffmpeg).push_back(cost.ffmpeg_cpu);
       (raw ? raw_ratio : png_ratio).push_back((cost.frames_cpu + cost.ffmpeg_cpu) / eval_cpu);
     }
   }
-  std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames), median of %d runs:\n", runs);
-  std::printf("  evaluation alone (20 s simulated)      %7.2f s CPU\n", Median(eval_cpus));
-  std::printf("  PNG frames: render + PNG               %7.2f s CPU\n", Median(png_frames));
-  std::printf("  PNG frames: ffmpeg (H.264)             %7.2f s CPU%s\n", Median(png_ffmpeg),
-              made_video ? "" : " (no ffmpeg: PNG sequence)");
-  std::printf("  PNG frames: video cost / evaluation    %7.2fx\n", Median(png_ratio));
-  std::printf("  raw frames: render                     %7.2f s CPU\n", Median(raw_frames));
-  std::printf("  raw frames: ffmpeg (H.264)             %7.2f s CPU\n", Median(raw_ffmpeg));
-  std::printf("  raw frames: video cost / evaluation    %7.2fx\n", Median(raw_ratio));
-
+  if (!no_video) {
+    std::printf("\n20-s quadruped video, 25 fps, 320x240 (500 frames), median of %d runs:\n", runs);
+    std::printf("  evaluation alone (20 s simulated)      %7.2f s CPU\n", Median(eval_cpus));
+    std::printf("  PNG frames: render + PNG               %7.2f s CPU\n", Median(png_frames));
+    std::printf("  PNG frames: ffmpeg (H.264)             %7.2f s CPU%s\n", Median(png_ffmpeg),
+                made_video ? "" : " (no ffmpeg: PNG sequence)");
+    std::printf("  PNG frames: video cost / evaluation    %7.2fx\n", Median(png_ratio));
+    std::printf("  raw frames: render + YUV + pipe        %7.2f s CPU\n", Median(raw_frames));
+    std::printf("    of which render                      %7.2f s CPU\n", Median(raw_render));
+    std::printf("  raw frames: ffmpeg (H.264)             %7.2f s CPU\n", Median(raw_ffmpeg));
+    std::printf("  raw frames: video cost / evaluation    %7.2fx\n", Median(raw_ratio));
+  }
+  if (!yuv_path.empty()) {
+    MakeVideo(renderer, follow, /*raw=*/true, yuv_path);
+    std::printf("\nthe raw video's frames (yuv420p 320x240, 25 fps) in %s\n", yuv_path.c_str());
+  }
   if (!png_dir.empty()) {
     std::filesystem::create_directories(png_dir);
     Camera top;

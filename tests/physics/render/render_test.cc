@@ -7,7 +7,9 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <optional>
+#include <set>
 #include <string>
 #include <thread>
 
@@ -241,6 +243,102 @@ TEST_P(RenderTest, LegendAndLabelsShowIdsAndTime) {
   EXPECT_EQ(labelled.At(static_cast<int>(centre.x()), static_cast<int>(centre.y())),
             plain.At(static_cast<int>(centre.x()), static_cast<int>(centre.y())));
   EXPECT_FALSE(labelled == plain);
+}
+
+// Reads the 3x5 glyph whose top-left font pixel is at (x, y) (scale 1) as
+// rows of 3 bits, a bit set where the pixel is `ink`.
+std::array<int, 5> ReadGlyph(const Image& image, int x, int y, const std::array<uint8_t, 4>& ink) {
+  std::array<int, 5> rows{};
+  for (int row = 0; row < 5; ++row) {
+    for (int col = 0; col < 3; ++col) {
+      if (image.At(x + col, y + row) == ink) rows[row] |= 1 << (2 - col);
+    }
+  }
+  return rows;
+}
+
+// The legend's time and the label's id are readable at the pixels the
+// layout puts them: every font pixel set or clear, in the text colour,
+// against the strip's or the label's background.
+TEST_P(RenderTest, TextIsDrawnPixelExactWhereTheLayoutPutsIt) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));  // t = 1.25 s, id 1
+  const Camera camera = FixedCamera();
+  RenderOptions options = Flat();
+  options.legend = true;
+  options.labels = true;
+  const Image image = renderer_->Render(scene, camera, 320, 240, options);
+  const std::array<uint8_t, 4> white = {255, 255, 255, 255};
+  // The same 3x5 font as the renderer, for the characters drawn here.
+  const std::map<char, std::array<int, 5>> font = {
+      {'t', {2, 7, 2, 2, 3}}, {'=', {0, 7, 0, 7, 0}}, {'1', {2, 6, 2, 2, 7}},
+      {'.', {0, 0, 0, 0, 2}}, {'2', {7, 1, 7, 4, 7}}, {'5', {7, 4, 7, 1, 7}},
+      {'s', {3, 4, 2, 1, 6}}};
+  // The time at the right of the strip: "t=1.25s" is 7 characters of 4
+  // pixels less one, with 2 pixels each side; the strip is one 7-pixel row
+  // plus 1 at the bottom.
+  const std::string time = "t=1.25s";
+  const int time_x = 320 - (7 * 4 - 1 + 4) + 2;
+  const int top = 240 - 7 - 1;
+  for (std::size_t i = 0; i < time.size(); ++i) {
+    EXPECT_EQ(ReadGlyph(image, time_x + 4 * static_cast<int>(i), top + 1, white),
+              font.at(time[i]))
+        << "character " << i << " '" << time[i] << "'";
+  }
+  // Left of the time: the module's swatch (5x5) and its id in the LED
+  // colour (the central module).
+  EXPECT_EQ(image.At(2, top + 1), image.At(6, top + 5));
+  EXPECT_TRUE(Near(image.At(2, top + 1), ModuleColor(kModuleId))) << Describe(image.At(2, top + 1));
+  EXPECT_EQ(ReadGlyph(image, 2 + 6, top + 1, image.At(2 + 6 + 1, top + 1)), font.at('1'));
+  EXPECT_GT(image.At(2 + 6 + 1, top + 1)[0], 200);  // red: the LED's colour
+  // The label: a box 3 pixels up and right of the body's projected centre,
+  // the id inside it, one pixel in.
+  const View view = ComputeView(camera, scene, 320, 240);
+  const Eigen::Vector2d centre = *Project(view, scene.modules[0].body.position);
+  const int x = static_cast<int>(std::floor(centre.x())) + 3;
+  const int y = static_cast<int>(std::floor(centre.y())) - 3 - 7;
+  EXPECT_EQ(ReadGlyph(image, x + 1, y + 1, white), font.at('1'));
+  const auto box = image.At(x, y);
+  EXPECT_EQ(image.At(x + 4, y + 6), box);  // the label is 5 x 7 pixels
+  EXPECT_NE(image.At(x + 5, y + 3), box);
+  EXPECT_TRUE(Near(box, Color{ModuleColor(kModuleId)[0] * 0.35f, ModuleColor(kModuleId)[1] * 0.35f,
+                              ModuleColor(kModuleId)[2] * 0.35f}))
+      << Describe(box);
+}
+
+// Shadows on the ground are one shade, however many shadow polygons cover
+// a pixel, and the ground in the sun keeps its colour.
+TEST_P(RenderTest, OverlappingShadowsDarkenTheGroundOnce) {
+  Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  SceneModule second = scene.modules[0];
+  second.id = 2;
+  second.central = false;
+  second.body.position = Eigen::Vector3d(0.04, 0.03, 0.16);  // above and beside the first
+  second.handle.position = second.body.position + Eigen::Vector3d(0.07, 0, 0);
+  scene.modules.push_back(second);
+  Camera camera;
+  camera.kind = CameraKind::kTop;
+  camera.height = 1.0;
+  RenderOptions options = Flat();
+  options.shadows = true;
+  const Image image = renderer_->Render(scene, camera, 320, 240, options);
+  const auto ground = Rgb(kGroundColor);
+  int shaded = 0;
+  std::set<std::array<uint8_t, 4>> shades;
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) {
+      const auto p = image.At(x, y);
+      if (p[0] < ground[0] - 20 && p[0] > 60 && std::abs(p[0] - p[1]) < 20) {
+        shades.insert(p);
+        ++shaded;
+      }
+    }
+  }
+  EXPECT_GT(shaded, 100);
+  EXPECT_EQ(shades.size(), 1u) << "shadows darken the ground once";
+  if (!shades.empty()) {
+    const auto s = *shades.begin();
+    EXPECT_NEAR(s[0], ground[0] * (1.0 - 0.38), 1.5) << Describe(s);
+  }
 }
 
 TEST_P(RenderTest, SeveralThreadsRenderInParallelWithTheirOwnContexts) {

@@ -139,6 +139,93 @@ TEST_F(VideoTest, RawImagesWithoutFfmpegBecomeThePngSequence) {
   EXPECT_TRUE(DecodePng(png) == RawFrame(8, 6, 101));
 }
 
+// RgbaToYuv420 against the BT.601 limited-range formulas in floating
+// point: luma per pixel, chroma from each 2x2 block's mean colour.
+TEST(RgbaToYuv420Test, MatchesTheBt601FormulasWithinOneStep) {
+  Image image{.width = 6, .height = 4};
+  for (int i = 0; i < 6 * 4; ++i) {
+    // Primaries, black, white and greys, then a spread of colours.
+    const std::array<std::array<int, 3>, 8> fixed = {
+        {{0, 0, 0}, {255, 255, 255}, {255, 0, 0}, {0, 255, 0},
+         {0, 0, 255}, {128, 128, 128}, {200, 194, 179}, {51, 140, 230}}};
+    const std::array<int, 3> c =
+        i < 8 ? fixed[i] : std::array<int, 3>{(i * 37) % 256, (i * 91) % 256, (i * 53) % 256};
+    image.rgba.insert(image.rgba.end(), {static_cast<uint8_t>(c[0]), static_cast<uint8_t>(c[1]),
+                                         static_cast<uint8_t>(c[2]), 255});
+  }
+  std::vector<uint8_t> yuv;
+  RgbaToYuv420(image, yuv);
+  ASSERT_EQ(yuv.size(), 6u * 4u + 2u * 3u * 2u);
+  auto px = [&](int x, int y, int c) { return image.rgba[(y * 6 + x) * 4 + c] / 255.0; };
+  for (int y = 0; y < 4; ++y) {
+    for (int x = 0; x < 6; ++x) {
+      const double want = 16 + 65.481 * px(x, y, 0) + 128.553 * px(x, y, 1) + 24.966 * px(x, y, 2);
+      EXPECT_NEAR(yuv[y * 6 + x], want, 1.0) << x << "," << y;
+    }
+  }
+  for (int y = 0; y < 2; ++y) {
+    for (int x = 0; x < 3; ++x) {
+      double r = 0, g = 0, b = 0;
+      for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+          r += px(2 * x + dx, 2 * y + dy, 0) / 4;
+          g += px(2 * x + dx, 2 * y + dy, 1) / 4;
+          b += px(2 * x + dx, 2 * y + dy, 2) / 4;
+        }
+      }
+      const double cb = 128 - 37.797 * r - 74.203 * g + 112.0 * b;
+      const double cr = 128 + 112.0 * r - 93.786 * g - 18.214 * b;
+      EXPECT_NEAR(yuv[24 + y * 3 + x], cb, 1.0) << x << "," << y;
+      EXPECT_NEAR(yuv[24 + 6 + y * 3 + x], cr, 1.0) << x << "," << y;
+    }
+  }
+  // The extremes: black is Y 16, white Y 235, greys have no colour.
+  EXPECT_EQ(yuv[0], 16);
+  EXPECT_EQ(yuv[1], 235);
+}
+
+TEST(RgbaToYuv420Test, OddSizesArePaddedWithBlackAndBadImagesRefused) {
+  Image image{.width = 3, .height = 3};
+  image.rgba.assign(3 * 3 * 4, 255);  // white
+  std::vector<uint8_t> yuv;
+  RgbaToYuv420(image, yuv);
+  ASSERT_EQ(yuv.size(), 4u * 4u + 2u * 2u * 2u);
+  for (int y = 0; y < 4; ++y) {
+    for (int x = 0; x < 4; ++x) {
+      EXPECT_EQ(yuv[y * 4 + x], (x < 3 && y < 3) ? 235 : 16) << x << "," << y;
+    }
+  }
+  EXPECT_EQ(yuv[16], 128);  // a white block: no colour
+  EXPECT_EQ(yuv[20], 128);
+  Image broken{.width = 4, .height = 4};
+  broken.rgba.assign(10, 0);
+  EXPECT_THROW(RgbaToYuv420(broken, yuv), Error);
+}
+
+// An odd-sized raw video comes out one column and row larger, every frame
+// there, its colours those of the frames (decoded back through ffmpeg).
+TEST_F(VideoTest, RawImagesOfOddSizeArePaddedAndKeepTheirColours) {
+  if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
+  const std::string path = (dir_ / "odd.mp4").string();
+  VideoWriter writer(path, VideoOptions{.frame_rate = 25, .raw_width = 63, .raw_height = 47});
+  Image frame{.width = 63, .height = 47};
+  for (int i = 0; i < 63 * 47; ++i) frame.rgba.insert(frame.rgba.end(), {51, 140, 230, 255});
+  for (int i = 0; i < 5; ++i) writer.AddImage(frame);
+  const VideoResult result = writer.Finish();
+  EXPECT_EQ(result.frames, 5);
+  EXPECT_EQ(Shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                  "stream=nb_read_frames,width,height -of csv=p=0 " + path),
+            "64,48,5\n");
+  // The middle pixel of the last frame, decoded to RGB.
+  const std::string rgb =
+      Shell("ffmpeg -v error -i " + path +
+            " -vf 'select=eq(n\\,4),format=rgb24,crop=1:1:30:20' -f rawvideo -pix_fmt rgb24 -");
+  ASSERT_EQ(rgb.size(), 3u);
+  EXPECT_NEAR(static_cast<uint8_t>(rgb[0]), 51, 4);
+  EXPECT_NEAR(static_cast<uint8_t>(rgb[1]), 140, 4);
+  EXPECT_NEAR(static_cast<uint8_t>(rgb[2]), 230, 4);
+}
+
 TEST(VideoOptionsTest, BadRateOrPathIsRefused) {
   EXPECT_THROW(VideoWriter("x.mp4", VideoOptions{.raw_width = 0, .raw_height = 5}), Error);
   EXPECT_THROW(VideoWriter("x.mp4", VideoOptions{.raw_width = 5000, .raw_height = 5}), Error);
