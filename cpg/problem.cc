@@ -1150,7 +1150,9 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
       out.tied.push_back({"offset." + Id(id), expr});
     }
   }
-  for (TiedParameter& t : PhaseRules(sol, net.edges, split_by_base ? &base_phases : nullptr, &out.notes)) out.tied.push_back(std::move(t));
+  for (TiedParameter& t : PhaseRules(sol, net.edges, split_by_base ? &base_phases : nullptr, &out.notes)) {
+    out.tied.push_back(std::move(t));
+  }
   return out;
 }
 

@@ -109,8 +109,8 @@ int main(int argc, char** argv) {
   CLI::App app{"yamor-cpg-build: generate a CPG network and an optimization problem from a morphology"};
   std::string world, morphology_file, daemon, base_file, passive, driven, output, robot_output;
   std::vector<std::string> keep_free;
-  bool explain = false, key_only = false, keep_inactive = false, no_symmetry = false, impose_symmetry = false, no_mirrors = false,
-       ignore_gravity = false;
+  bool explain = false, key_only = false, keep_inactive = false, no_symmetry = false, impose_symmetry = false,
+       no_mirrors = false, ignore_gravity = false;
   int max_free = 7;
   uint64_t seed = 1;
   double timeout = 10;
