@@ -19,10 +19,10 @@ constexpr const char* kModelBudget = "400";
 // powell's default line search (brent) asks for one candidate at a time and
 // leaves all workers but one idle. A plugin offering a batch line search
 // gets it in model mode unless --set chooses: the 7.5.1 transformation
-// relearned in 222 s instead of 456 s of wall time for 400 evaluations on one
-// daemon's 2 workers, 8.02 against 8.40 cm/s (docs/benchmarks.md, "Lifelong
-// learning"). Online, a trial is one at a time either way and brent needs
-// fewer of them.
+// relearned with 150 evaluations on one daemon's 2 workers in 57 s instead
+// of 96 s of wall time, 6.64 against 4.20 cm/s (400: 150 s against 184 s,
+// 8.02 against 8.40; docs/benchmarks.md, "Lifelong learning"). Online, a
+// trial is one at a time either way and brent needs fewer of them.
 constexpr const char* kLineSearchField = "line_search";
 constexpr const char* kBatchLineSearch = "interval";
 
