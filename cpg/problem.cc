@@ -815,7 +815,10 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     base_phases.backward.push_back(b ? std::optional(b->phase) : std::nullopt);
   }
   const auto same_value = [](double a, double b) { return std::abs(a - b) <= kSameValue; };
-  {
+  // With impose_symmetry the three splits below are skipped: every tie
+  // holds and the start point is the base projected onto them.
+  const bool split_by_base = !options.impose_symmetry;
+  if (split_by_base) {
     std::map<ModuleId, std::vector<ModuleId>> split;
     for (const auto& [rep, members] : amplitude_classes) {
       auto groups = SplitByValue<ModuleId>(
@@ -834,7 +837,7 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     }
     amplitude_classes = std::move(split);
   }
-  {
+  if (split_by_base) {
     std::map<ModuleId, std::vector<std::pair<ModuleId, int>>> split;
     for (const auto& [rep, members] : offset_classes) {
       auto groups = SplitByValue<std::pair<ModuleId, int>>(
@@ -860,7 +863,7 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
     }
     offset_classes = std::move(split);
   }
-  {
+  if (split_by_base) {
     int next = 0;
     for (const EdgeTie& t : ties) next = std::max(next, t.cls + 1);
     std::map<int, std::vector<int>> classes;
@@ -994,15 +997,18 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
 
   // The budget rule (docs/cpg_build.md): (1) fix offsets, in a seeded order;
   // (2) tie every amplitude to one; (3) fix phases, in a seeded order;
-  // (4) fix the amplitude. What is fixed keeps its warm-start value.
+  // (4) fix the amplitude; (5) free fixed offsets again while the budget
+  // allows. What is fixed keeps its warm-start value.
   std::mt19937_64 rng(options.seed);
   SeededShuffle(offsets, rng);
   SeededShuffle(phases, rng);
   auto total = [&] { return offsets.size() + amplitudes.size() + phases.size(); };
   const size_t budget = static_cast<size_t>(options.max_free);
   std::vector<std::string> fixed_params;
+  std::vector<Candidate> fixed_offsets;  // in the order fixed
   while (total() > budget && !offsets.empty()) {
     fixed_params.push_back(offsets.back().param.param);
+    fixed_offsets.push_back(offsets.back());
     offsets.pop_back();
   }
   // Ties amplitude classes with the same key into one each: the
@@ -1052,6 +1058,15 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   while (total() > budget && !amplitudes.empty()) {
     fixed_params.push_back(amplitudes.back().param.param);
     amplitudes.pop_back();
+  }
+  // (5) Tying the amplitudes may leave the budget unspent after step (1)
+  // fixed offsets for it: those offsets come back, the last fixed first
+  // (the transformed quadruped: 6 free with four offsets fixed, now 7).
+  while (total() < budget && !fixed_offsets.empty()) {
+    const std::string name = fixed_offsets.back().param.param;
+    fixed_params.erase(std::find(fixed_params.begin(), fixed_params.end(), name));
+    offsets.push_back(std::move(fixed_offsets.back()));
+    fixed_offsets.pop_back();
   }
 
   // Tied members start where their representative is, or where the base
@@ -1135,7 +1150,9 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
       out.tied.push_back({"offset." + Id(id), expr});
     }
   }
-  for (TiedParameter& t : PhaseRules(sol, net.edges, &base_phases, &out.notes)) out.tied.push_back(std::move(t));
+  for (TiedParameter& t : PhaseRules(sol, net.edges, split_by_base ? &base_phases : nullptr, &out.notes)) {
+    out.tied.push_back(std::move(t));
+  }
   return out;
 }
 

@@ -23,6 +23,12 @@ namespace yamor::cpg {
 struct ProblemOptions {
   NetworkOptions network;           ///< Network construction.
   bool use_symmetry = true;         ///< Tie parameters across symmetries.
+  /// Impose every symmetry tie even where the base contradicts it (a gait
+  /// learned on another body): the start point is then the base projected
+  /// onto the ties (each class at its first configured member's value, loops
+  /// closed without the base's sums), not the base itself. Off: only the
+  /// ties the base satisfies (docs/cpg_build.md, "The base is the start point").
+  bool impose_symmetry = false;
   SymmetryOptions symmetry;         ///< Which symmetries count.
   int max_free = 7;                 ///< Budget of free parameters (>= 1).
   uint64_t seed = 1;                ///< Seed of the reduction rule.

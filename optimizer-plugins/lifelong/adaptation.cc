@@ -90,6 +90,9 @@ AdaptationPlan PlanAdaptation(const cpg::ModuleGraph& graph, const std::string& 
   problem_options.max_free = options.max_free;
   problem_options.seed = options.seed;
   problem_options.use_symmetry = options.use_symmetry;
+  // Only a body change imposes the new body's ties: a gait without rules on
+  // an unchanged body is the start point as it is.
+  problem_options.impose_symmetry = body_changed && options.impose_symmetry;
   problem_options.network.couple_across_passive = options.couple_across_passive;
   const cpg::GeneratedProblem generated = cpg::GenerateProblem(graph, &base, problem_options);
   plan.how = body_changed ? "rebuilt" : "generated";
@@ -100,7 +103,8 @@ AdaptationPlan PlanAdaptation(const cpg::ModuleGraph& graph, const std::string& 
                        : "no usable rules: problem generated from the current body")
       << " (key " << generated.key << ", " << generated.network.oscillators.size() << " oscillators, "
       << generated.network.edges.size() << " couplings, " << generated.free.size() << " free, "
-      << generated.tied.size() << " tied, " << generated.fixed.size() << " fixed), warm start from the current gait";
+      << generated.tied.size() << " tied, " << generated.fixed.size() << " fixed), warm start from the current gait"
+      << (problem_options.impose_symmetry ? " projected onto the body's symmetry ties" : "");
   plan.explanation = why.str();
   return plan;
 }

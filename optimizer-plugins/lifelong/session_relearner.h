@@ -28,7 +28,7 @@ struct RelearnerOptions {
   std::string plugin = "powell";   ///< Plugin name or path (yamor-optimize --plugin).
   std::vector<std::string> plugin_dirs;  ///< Folders searched before the defaults.
   /// Plugin field values (yamor-optimize --set). Without max_evaluations the
-  /// budget is 60 trials online and 400 evaluations in model mode.
+  /// budget is 100 trials online and 400 evaluations in model mode.
   std::map<std::string, std::string> set;
   /// Model mode: the hosts evaluating candidates; empty = the robot's own daemon.
   std::vector<optimizer::HostAddress> model_hosts;
@@ -61,7 +61,8 @@ class SessionRelearner final : public Relearner {
   /// The plugin in use.
   const optimizer::LoadedPlugin& plugin() const { return plugin_; }
   /// The plugin's field values given (--set) with the mode's default budget
-  /// (max_evaluations) filled in when not given.
+  /// (max_evaluations) filled in when not given, and in model mode a batch
+  /// line search (line_search=interval) for a plugin that offers one.
   std::map<std::string, std::string> Fields() const;
 
  private:

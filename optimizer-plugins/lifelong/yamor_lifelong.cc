@@ -155,6 +155,10 @@ int main(int argc, char** argv) {
                  "A recalled gait is kept at this fraction of its expected velocity")->capture_default_str();
   app.add_option("--max-free", life.adaptation.max_free, "Free parameters of a rebuilt network")
       ->capture_default_str();
+  bool base_ties_only = false;
+  app.add_flag("--base-ties-only", base_ties_only,
+               "A rebuilt network ties only what the current gait satisfies (start: exactly the current "
+               "gait) instead of every symmetry of the new body");
   app.add_option("--seed", life.seed, "Seed of the relearning runs and of the budget rule")->capture_default_str();
   app.add_option("--max-time", life.max_life_seconds, "Stop after this much life time [s]; 0 = never")
       ->capture_default_str();
@@ -197,6 +201,7 @@ int main(int argc, char** argv) {
       life.anomaly.threshold = absolute_threshold;
       life.anomaly.relative = false;
     }
+    life.adaptation.impose_symmetry = !base_ties_only;
     relearn.mode = mode;
     relearn.plugin = plugin;
     relearn.plugin_dirs = plugin_dirs;

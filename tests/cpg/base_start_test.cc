@@ -4,6 +4,7 @@
 // ties and loop rules applied, give back the configured gait of every world
 // of configs/worlds/ and of the transformed quadruped of thesis 7.5.1, so
 // learning on it can only improve on that gait.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -212,6 +213,66 @@ TEST(BaseStartTest, ABaseWhoseBackLinksAreNotOppositeKeepsTheirSum) {
   EXPECT_LT(AngleGap(moved.FindCoupling(10, 11)->phase + moved.FindCoupling(11, 10)->phase,
                      forward->phase + back->phase),
             1e-9);
+}
+
+TEST(BaseStartTest, ImposeSymmetryTiesWhatTheBaseContradicts) {
+  // The trebuchet's leg couplings break the mirror tie (above); with
+  // impose_symmetry the tie holds anyway, with the base's first coupling as
+  // the class's start: 10->12 starts at -(7->10) + pi, not at the base's 0.
+  const RobotConfig base = LoadConfigFile(kConfigs + "robots/trebuchet.xml");
+  const physics::Morphology body = physics::Morphology::LoadFile(kConfigs + "worlds/trebuchet.xml");
+  ProblemOptions options;
+  options.impose_symmetry = true;
+  const GeneratedProblem p = Generate(body, base, options);
+  std::vector<std::string> free;
+  for (const FreeParameter& f : p.free) free.push_back(f.param);
+  EXPECT_THAT(free, ::testing::Not(::testing::Contains("phase.10.12")));
+  EXPECT_EQ(p.free.size(), 5u);
+  const RobotConfig start = StartRobot(p);
+  EXPECT_LT(AngleGap(start.FindCoupling(10, 12)->phase, -start.FindCoupling(7, 10)->phase + std::numbers::pi),
+            1e-9);
+  EXPECT_LT(AngleGap(start.FindCoupling(7, 10)->phase, base.FindCoupling(7, 10)->phase), 1e-9);
+  EXPECT_GT(AngleGap(start.FindCoupling(10, 12)->phase, base.FindCoupling(10, 12)->phase), 0.1);
+  // A base that satisfies every tie and closes every loop (no note about the
+  // base) is still the start point.
+  for (const std::string& world : Worlds()) {
+    SCOPED_TRACE(world);
+    const RobotConfig own = LoadConfigFile(kConfigs + "robots/" + world + ".xml");
+    const physics::Morphology w = physics::Morphology::LoadFile(kConfigs + "worlds/" + world + ".xml");
+    const GeneratedProblem faithful = Generate(w, own);
+    if (std::none_of(faithful.notes.begin(), faithful.notes.end(),
+                     [](const std::string& n) { return n.find("base") != std::string::npos; })) {
+      ExpectStartIsBase(Generate(w, own, options), own, /*all_couplings=*/true);
+    }
+  }
+}
+
+TEST(BaseStartTest, NoOffsetStaysFixedWhileTheBudgetHasRoom) {
+  // Step 1 of the budget rule fixes offsets before step 2 ties amplitudes;
+  // what step 2 frees goes back to offsets (the transformed quadruped had 6
+  // free parameters with four offsets fixed).
+  for (const std::string& world : Worlds()) {
+    const RobotConfig base = LoadConfigFile(kConfigs + "robots/" + world + ".xml");
+    const physics::Morphology body = physics::Morphology::LoadFile(kConfigs + "worlds/" + world + ".xml");
+    for (int budget : {1, 2, 3, 5, 7}) {
+      for (uint64_t seed : {1u, 2u, 7u}) {
+        for (bool impose : {false, true}) {
+          SCOPED_TRACE(world + ", budget " + std::to_string(budget) + ", seed " + std::to_string(seed) +
+                       (impose ? ", imposed" : ""));
+          ProblemOptions options{.max_free = budget, .seed = seed};
+          options.impose_symmetry = impose;
+          const GeneratedProblem p = Generate(body, base, options);
+          EXPECT_LE(p.free.size(), static_cast<size_t>(budget));
+          const bool offset_fixed = std::any_of(p.fixed.begin(), p.fixed.end(), [](const FixedParameter& f) {
+            return f.param.rfind("offset.", 0) == 0;
+          });
+          if (offset_fixed) {
+            EXPECT_EQ(p.free.size(), static_cast<size_t>(budget));
+          }
+        }
+      }
+    }
+  }
 }
 
 }  // namespace

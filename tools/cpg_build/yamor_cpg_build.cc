@@ -109,8 +109,8 @@ int main(int argc, char** argv) {
   CLI::App app{"yamor-cpg-build: generate a CPG network and an optimization problem from a morphology"};
   std::string world, morphology_file, daemon, base_file, passive, driven, output, robot_output;
   std::vector<std::string> keep_free;
-  bool explain = false, key_only = false, keep_inactive = false, no_symmetry = false, no_mirrors = false,
-       ignore_gravity = false;
+  bool explain = false, key_only = false, keep_inactive = false, no_symmetry = false, impose_symmetry = false,
+       no_mirrors = false, ignore_gravity = false;
   int max_free = 7;
   uint64_t seed = 1;
   double timeout = 10;
@@ -129,6 +129,8 @@ int main(int argc, char** argv) {
   app.add_flag("--keep-inactive", keep_inactive,
                "thesis-literal network: passive modules keep an oscillator, couple physical edges only");
   app.add_flag("--no-symmetry", no_symmetry, "do not tie parameters across symmetries");
+  app.add_flag("--impose-symmetry", impose_symmetry,
+               "tie symmetric parameters even where --base contradicts the tie (start: the base projected)");
   app.add_flag("--no-mirrors", no_mirrors, "rotations only: ignore mirror images");
   app.add_flag("--ignore-gravity", ignore_gravity, "also use symmetries that turn the robot over");
   app.add_option("--max-free", max_free, "budget of free parameters")->check(CLI::PositiveNumber);
@@ -183,6 +185,7 @@ int main(int argc, char** argv) {
     yamor::cpg::ProblemOptions options;
     options.network.couple_across_passive = !keep_inactive;
     options.use_symmetry = !no_symmetry;
+    options.impose_symmetry = impose_symmetry;
     options.symmetry.mirrors = !no_mirrors;
     options.symmetry.respect_gravity = !ignore_gravity;
     options.max_free = max_free;

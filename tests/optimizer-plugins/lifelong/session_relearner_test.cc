@@ -1,0 +1,50 @@
+// The relearner's plugin fields (session_relearner.h): the mode's default
+// budget, and in model mode a batch line search for a plugin that has one,
+// so the host pool's workers evaluate a line's points at once. No daemon is
+// called: the port only opens a channel to an unused loopback port.
+#include "optimizer-plugins/lifelong/session_relearner.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <string>
+
+namespace yamor::lifelong {
+namespace {
+
+std::map<std::string, std::string> FieldsOf(const std::string& plugin, const std::string& mode,
+                                            std::map<std::string, std::string> set = {}) {
+  DaemonPort port(optimizer::HostAddress{.host = "127.0.0.1", .port = 1}, {});
+  RelearnerOptions options;
+  options.mode = mode;
+  options.plugin = plugin;
+  options.plugin_dirs = {YAMOR_PLUGIN_DIR};
+  options.set = std::move(set);
+  return SessionRelearner(port, options).Fields();
+}
+
+TEST(SessionRelearnerTest, ModelModeUsesPowellsBatchLineSearch) {
+  const auto fields = FieldsOf("powell", "model");
+  EXPECT_EQ(fields.at("line_search"), "interval");
+  EXPECT_EQ(fields.at("max_evaluations"), "400");
+}
+
+TEST(SessionRelearnerTest, OnlineKeepsThePluginsOwnLineSearch) {
+  const auto fields = FieldsOf("powell", "online");
+  EXPECT_EQ(fields.count("line_search"), 0u);
+  EXPECT_EQ(fields.at("max_evaluations"), "100");
+}
+
+TEST(SessionRelearnerTest, AGivenLineSearchWins) {
+  const auto fields = FieldsOf("powell", "model", {{"line_search", "brent"}, {"max_evaluations", "50"}});
+  EXPECT_EQ(fields.at("line_search"), "brent");
+  EXPECT_EQ(fields.at("max_evaluations"), "50");
+}
+
+TEST(SessionRelearnerTest, APluginWithoutALineSearchGetsNone) {
+  const auto fields = FieldsOf("random", "model");
+  EXPECT_EQ(fields.count("line_search"), 0u);
+}
+
+}  // namespace
+}  // namespace yamor::lifelong
