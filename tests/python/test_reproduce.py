@@ -124,6 +124,8 @@ def test_fig6_12_runs_both_methods_from_the_same_ten_starts(built, tmp_path):
             best = [float(r[4]) for r in curves if r[0] == method and r[1] == start[0]]
             assert len(best) == len(evaluations)
             assert best == sorted(best)  # best so far never decreases
+            # Figures come from the CSVs: no run films its best gait.
+            assert not list(run.glob("best*.mp4")) and not (run / "best-strip.png").exists()
     assert len(curves) == total
     _, final = read_csv(out / "final.csv")
     assert len(final) == 10

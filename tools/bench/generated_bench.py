@@ -253,7 +253,7 @@ def evaluate_all(bins, hosts: list[str], jobs: list[tuple]) -> list[float | str]
 def optimize_argv(problem: Problem, args, bins, hosts: str, out: Path) -> list[str]:
     argv = ["--plugin", VARIANT.plugin, "--plugin-dir", str(bins["plugins"]), "--config", str(problem.config),
             *problem.body_argv(), "--hosts", hosts, "--warmup", repr(args.warmup),
-            "--duration", repr(args.duration), "--eval-seed", str(EVAL_SEED), "--no-plot",
+            "--duration", repr(args.duration), "--eval-seed", str(EVAL_SEED), "--no-plot", "--no-video",
             "--set", f"max_evaluations={args.budget}", "--out", str(out)]
     for key, value in VARIANT.sets:
         argv += ["--set", f"{key}={value}"]

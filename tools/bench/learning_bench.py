@@ -130,7 +130,7 @@ def median_with_never(values: list[int | None]) -> float | None:
 def optimize_argv(variant: Variant, args, bins, hosts: str, out: Path) -> list[str]:
     argv = ["--plugin", variant.plugin, "--plugin-dir", str(bins["plugins"]), "--config", str(CONFIG),
             "--world", "quadruped", "--hosts", hosts, "--warmup", repr(args.warmup),
-            "--duration", repr(args.duration), "--no-plot",
+            "--duration", repr(args.duration), "--no-plot", "--no-video",
             "--set", f"max_evaluations={args.budget}", "--out", str(out)]
     for key, value in variant.sets:
         argv += ["--set", f"{key}={value}"]

@@ -213,7 +213,7 @@ def part_transform(args, bins, hosts: Hosts, pool_hosts: list[str], out: Path, r
     daemons.run_optimize(bins["optimize"], [
         "--plugin", "powell", "--config", str(problem), "--morphology", str(morphology), "--hosts",
         ",".join(pool_hosts), "--set", f"max_evaluations={args.offline_budget}", "--out", str(offline),
-        "--no-plot"] + (["--warmup", "1", "--duration", "2"] if args.quick else []), quiet=True,
+        "--no-plot", "--no-video"] + (["--warmup", "1", "--duration", "2"] if args.quick else []), quiet=True,
         log=folder / "offline.log")
     offline_wall = time.monotonic() - started
     v_offline = evaluate(bins, pool_hosts[0], (offline / "best.xml").read_text(), morphology, folder, "offline-best")

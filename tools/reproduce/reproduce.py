@@ -98,7 +98,8 @@ def optimize_args(s: Settings, plugin: str, config: Path, out: Path, sets: dict)
     """yamor-optimize's arguments for one run (or batch) over the pool."""
     argv = ["--plugin", plugin, "--plugin-dir", str(s.bins["plugins"]), "--config", str(config),
             "--world", "quadruped", "--hosts", s.hosts, "--warmup", repr(s.warmup),
-            "--duration", repr(s.duration), "--eval-seed", str(s.eval_seed), "--out", str(out)]
+            "--duration", repr(s.duration), "--eval-seed", str(s.eval_seed), "--out", str(out),
+            "--no-video"]  # the figures come from the CSVs; a video per run would double the CPU
     if s.no_plot:
         argv.append("--no-plot")  # progress.png costs a Python start per run
     for key, value in sets.items():
