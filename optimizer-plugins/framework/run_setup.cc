@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -103,7 +104,10 @@ std::vector<BatchInstance> ParseBatchToml(std::string_view text, const std::stri
         }
         instance.name = *s;
       } else if (k == "seed") {
-        auto v = value.value<int64_t>();
+        // Integers only: toml++ (3.x) converting a float beyond int64's range
+        // is undefined behaviour (found by batch_fuzzer under UBSan).
+        const std::optional<int64_t> v =
+            value.is_integer() ? value.value<int64_t>() : std::nullopt;
         if (!v || *v < 0) {
           throw Error(StatusCode::kInvalidArgument, Where(path, value) + ": seed must be an integer >= 0");
         }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <toml++/toml.h>
@@ -43,7 +44,9 @@ double Number(const std::string& path, const toml::node& node, const std::string
 }
 
 int ModuleId(const std::string& path, const toml::node& node, const std::string& key) {
-  auto v = node.value<int64_t>();
+  // Integers only: toml++ converting a float beyond int64's range is
+  // undefined behaviour.
+  const std::optional<int64_t> v = node.is_integer() ? node.value<int64_t>() : std::nullopt;
   if (!v || *v < 0 || *v > 254) Bad(Where(path, node), key + " must be a module id in 0..254");
   return static_cast<int>(*v);
 }
@@ -195,7 +198,7 @@ Scenario Scenario::Load(const std::string& path) {
         throw Error(StatusCode::kNotFound, Where(path, node) + ": config " + s.config_path + " does not exist");
       }
     } else if (k == "seed") {
-      auto v = node.value<int64_t>();
+      const std::optional<int64_t> v = node.is_integer() ? node.value<int64_t>() : std::nullopt;
       if (!v || *v < 0) Bad(Where(path, node), "seed must be an integer >= 0");
       s.seed = static_cast<std::uint64_t>(*v);
     } else if (k == "options") {

@@ -64,6 +64,19 @@ TEST(BatchFile, RefusesBadInstancesNamingTheLine) {
   EXPECT_NE(Refusal("[[instance]]\nname = \"a\n").find("b.toml:2:"), std::string::npos);
 }
 
+// Found by batch_fuzzer's 10-minute run under UBSan (now a corpus seed,
+// tests/fuzz/corpus/batch_fuzzer/regression-huge-float-seed.toml): a float
+// seed beyond int64's range reached toml++'s float-to-integer conversion,
+// which is undefined behaviour there. Only integers are converted now.
+TEST(BatchFile, RefusesAFloatSeedOfAnySize) {
+  for (const char* seed : {"9.3e19", "-9.3e19", "1e300", "2.0", "inf", "nan"}) {
+    EXPECT_NE(Refusal(std::string("[[instance]]\nseed = ") + seed + "\n")
+                  .find("b.toml:2: seed must be an integer >= 0"),
+              std::string::npos)
+        << seed;
+  }
+}
+
 // Caught by batch_fuzzer's check on a hand-made input, now a corpus seed
 // (tests/fuzz/corpus/batch_fuzzer/regression-empty-field-name.toml):
 // `"" = 1` is valid TOML and was passed on as a field named "".

@@ -90,6 +90,12 @@ TEST_F(ScenarioFileTest, MistakesNameTheFileLineAndKey) {
   EXPECT_NE(e.find("needs defect"), std::string::npos) << e;
   e = Error(head + "[[change]]\nat = 5\ndo = \"motor_defect\"\nmodule = 300\ndefect = \"limp\"\n");
   EXPECT_NE(e.find("0..254"), std::string::npos) << e;
+  // Floats are refused before toml++ converts them (out of int64's range
+  // its conversion is undefined behaviour).
+  e = Error(head + "[[change]]\nat = 5\ndo = \"motor_defect\"\nmodule = 9.3e19\ndefect = \"limp\"\n");
+  EXPECT_NE(e.find("0..254"), std::string::npos) << e;
+  e = Error(head + "seed = 9.3e19\n");
+  EXPECT_NE(e.find("seed must be an integer >= 0"), std::string::npos) << e;
   e = Error(head + "[[change]]\nat = 5\ndo = \"ground\"\nfrition = 0.1\n");
   EXPECT_NE(e.find("ground change without"), std::string::npos) << e;
   e = Error(head + "[[change]]\nat = 5\ndo = \"upside_down\"\nmodule = 1\n");
