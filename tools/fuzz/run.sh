@@ -5,6 +5,9 @@
 set -euo pipefail
 build="$1"; seconds="$2"
 root="$(cd "$(dirname "$0")/../.." && pwd)"
+# A UBSan report ends the run as a finding (by default UBSan only prints and
+# goes on, so batch_fuzzer's toml++ report passed unnoticed once).
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
 found=0
 for fuzzer in "$build"/tests/fuzz/*_fuzzer; do
   [ -x "$fuzzer" ] || continue
