@@ -9,6 +9,7 @@
 
 #include "common/format.h"
 #include "common/status.h"
+#include "cpg/parameters.h"
 
 namespace yamor::cpg {
 
@@ -114,6 +115,20 @@ void CheckModule(const ModuleParams& module, const Locator& at) {
   if (module.speed < 0.0) {
     Fail(where + "speed (" + FormatDouble(module.speed) + ") must be >= 0");
   }
+  // The ranges the named parameters (cpg/parameters.h) accept: beyond them
+  // the oscillators overflow (robot_config_fuzzer: amplitude 1e308 gave a NaN
+  // set-point).
+  const auto check_range = [&](const char* name, double value, double lo, double hi) {
+    if (value < lo || value > hi) {
+      Fail(where + name + " (" + FormatDouble(value) + ") must be in [" + FormatDouble(lo) +
+           ", " + FormatDouble(hi) + "]");
+    }
+  };
+  check_range("amplitude", module.amplitude, 0.0, kMaxAmplitude);
+  check_range("offset", module.offset, -kMaxAmplitude, kMaxAmplitude);
+  check_range("speed", module.speed, 0.0, kMaxSpeedHz);
+  check_range("minangle", module.min_angle, -kMaxLimitAngle, kMaxLimitAngle);
+  check_range("maxangle", module.max_angle, -kMaxLimitAngle, kMaxLimitAngle);
   if (!(module.min_angle < module.max_angle)) {
     Fail(where + "minangle (" + FormatDouble(module.min_angle) +
          ") must be < maxangle (" + FormatDouble(module.max_angle) + ")");
@@ -145,6 +160,14 @@ void CheckCouplings(const RobotConfig& config, const std::set<ModuleId>& ids,
     }
     if (!std::isfinite(coupling.weight)) {
       Fail(where + ": weight (" + FormatDouble(coupling.weight) + ") must be finite");
+    }
+    if (std::fabs(coupling.phase) > kMaxCouplingPhase) {
+      Fail(where + ": phase (" + FormatDouble(coupling.phase) + ") must be in [" +
+           FormatDouble(-kMaxCouplingPhase) + ", " + FormatDouble(kMaxCouplingPhase) + "]");
+    }
+    if (std::fabs(coupling.weight) > kMaxCouplingWeight) {
+      Fail(where + ": weight (" + FormatDouble(coupling.weight) + ") must be in [" +
+           FormatDouble(-kMaxCouplingWeight) + ", " + FormatDouble(kMaxCouplingWeight) + "]");
     }
   }
 }

@@ -347,6 +347,21 @@ TEST(ValidateInCodeTest, ModuleRules) {
   ExpectInvalid(
       [&] { Validate(with([](RobotConfig& c) { c.modules[1].max_angle = -1; })); },
       {"module 2: minangle (-1) must be < maxangle (-1)"});
+  // Found by robot_config_fuzzer's 10-minute run: amplitude 1e308 passed and
+  // the oscillators overflowed to a NaN set-point. The named parameters'
+  // ranges (cpg/parameters.h) now hold for configuration files too.
+  ExpectInvalid(
+      [&] { Validate(with([](RobotConfig& c) { c.modules[0].amplitude = 1e308; })); },
+      {"module 1: amplitude (1e+308) must be in [0, 6.283185307179586]"});
+  ExpectInvalid(
+      [&] { Validate(with([](RobotConfig& c) { c.modules[1].offset = -7; })); },
+      {"module 2: offset (-7) must be in"});
+  ExpectInvalid(
+      [&] { Validate(with([](RobotConfig& c) { c.modules[1].speed = 10.5; })); },
+      {"module 2: speed (10.5) must be in [0, 10]"});
+  ExpectInvalid(
+      [&] { Validate(with([](RobotConfig& c) { c.modules[1].min_angle = -1e9; })); },
+      {"module 2: minangle (-1e+09) must be in"});
   ExpectInvalid(
       [&] { Validate(with([](RobotConfig& c) { c.modules[2].id = 2; })); },
       {"module 2: realid 2 is used by two modules"});
@@ -379,6 +394,12 @@ TEST(ValidateInCodeTest, CouplingRules) {
   ExpectInvalid([&] {
     Validate(with([](RobotConfig& c) { c.couplings[1].weight = -kInf; }));
   }, {"module 3: cpglink to (2): weight (-inf) must be finite"});
+  ExpectInvalid([&] {
+    Validate(with([](RobotConfig& c) { c.couplings[1].weight = 1e300; }));
+  }, {"module 3: cpglink to (2): weight (1e+300) must be in [-1000, 1000]"});
+  ExpectInvalid([&] {
+    Validate(with([](RobotConfig& c) { c.couplings[0].phase = -13; }));
+  }, {"module 2: cpglink to (3): phase (-13) must be in"});
 }
 
 TEST(ValidateInCodeTest, TreeRules) {

@@ -1,11 +1,14 @@
 // Tests of the XML reader and writer and of the robot files in configs/.
 #include "cpg/config_xml.h"
 
+#include "cpg/parameters.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -257,8 +260,8 @@ TEST(ConfigXmlTest, NumberFormsThatAreAccepted) {
     double value;
   } cases[] = {{"1.0", 1.0},       {"-2.09", -2.09},  {"3.14159", 3.14159},
                {" 0.5 ", 0.5},     {"+0.5", 0.5},     {"1e-3", 1e-3},
-               {".5", 0.5},        {"7", 7.0},        {"-0", 0.0},
-               {"5e-324", 5e-324}, {"1.7976931348623157e308", 1.7976931348623157e308}};
+               {".5", 0.5},        {"6", 6.0},        {"-0", 0.0},
+               {"5e-324", 5e-324}, {"6.283185307179586", 6.283185307179586}};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.text);
     const RobotConfig config = ParseConfigXml(TwoModules(
@@ -266,6 +269,10 @@ TEST(ConfigXmlTest, NumberFormsThatAreAccepted) {
         R"(" speed="1" minangle="-1" maxangle="1")"));
     EXPECT_EQ(config.modules[1].offset, c.value);
   }
+  // The largest double is read exactly too, and refused by the range.
+  ExpectParseError(TwoModules(R"(realid="2" amplitude="0.5" offset="1.7976931348623157e308" )"
+                              R"(speed="1" minangle="-1" maxangle="1")"),
+                   5, {"offset (1.7976931348623157e+308) must be in"});
 }
 
 TEST(ConfigXmlTest, MissingAttributes) {
@@ -423,7 +430,9 @@ TEST(ConfigXmlTest, WriteRejectsInvalidConfigs) {
 
 // Doubles over the whole finite range: zeros, subnormals, extremes and
 // random mantissas with exponents from 2^-1022 to 2^1023.
-double RandomDouble(std::mt19937_64& rng, bool non_negative) {
+// Values beyond `limit` (the field's range, cpg/parameters.h) are folded
+// back with fmod, which is exact, so the random mantissa bits survive.
+double RandomDouble(std::mt19937_64& rng, bool non_negative, double limit) {
   double value = 0.0;
   switch (rng() % 10) {
     case 0: value = 0.0; break;
@@ -431,7 +440,7 @@ double RandomDouble(std::mt19937_64& rng, bool non_negative) {
     case 2:  // subnormal
       value = std::bit_cast<double>(rng() & ((std::uint64_t{1} << 52) - 1));
       break;
-    case 3: value = std::numeric_limits<double>::max(); break;
+    case 3: value = limit; break;
     case 4: value = std::numeric_limits<double>::min(); break;
     case 5: value = static_cast<double>(rng() % 2001) / 1000.0; break;
     default: {
@@ -439,6 +448,7 @@ double RandomDouble(std::mt19937_64& rng, bool non_negative) {
       value = std::bit_cast<double>((exponent << 52) | (rng() >> 12));
     }
   }
+  if (value > limit) value = std::fmod(value, limit);
   if (value != 0.0 && !non_negative && (rng() & 1)) value = -value;
   return value;
 }
@@ -461,12 +471,12 @@ RobotConfig RandomConfig(std::mt19937_64& rng) {
   for (ModuleId id : ids) {
     ModuleParams module;
     module.id = id;
-    module.amplitude = RandomDouble(rng, true);
-    module.offset = RandomDouble(rng, false);
-    module.speed = RandomDouble(rng, true);
-    double low = RandomDouble(rng, false);
-    double high = RandomDouble(rng, false);
-    while (low == high) high = RandomDouble(rng, false);
+    module.amplitude = RandomDouble(rng, true, kMaxAmplitude);
+    module.offset = RandomDouble(rng, false, kMaxAmplitude);
+    module.speed = RandomDouble(rng, true, kMaxSpeedHz);
+    double low = RandomDouble(rng, false, kMaxLimitAngle);
+    double high = RandomDouble(rng, false, kMaxLimitAngle);
+    while (low == high) high = RandomDouble(rng, false, kMaxLimitAngle);
     module.min_angle = std::min(low, high);
     module.max_angle = std::max(low, high);
     config.modules.push_back(module);
@@ -480,8 +490,8 @@ RobotConfig RandomConfig(std::mt19937_64& rng) {
     std::shuffle(others.begin(), others.end(), rng);
     const std::size_t links = std::min<std::size_t>(others.size(), rng() % 4);
     for (std::size_t k = 0; k < links; ++k) {
-      config.couplings.push_back({from, others[k], RandomDouble(rng, false),
-                                  RandomDouble(rng, false)});
+      config.couplings.push_back({from, others[k], RandomDouble(rng, false, kMaxCouplingPhase),
+                                  RandomDouble(rng, false, kMaxCouplingWeight)});
     }
   }
   return config;
