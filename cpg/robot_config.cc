@@ -161,10 +161,7 @@ void CheckCouplings(const RobotConfig& config, const std::set<ModuleId>& ids,
     if (!std::isfinite(coupling.weight)) {
       Fail(where + ": weight (" + FormatDouble(coupling.weight) + ") must be finite");
     }
-    if (std::fabs(coupling.phase) > kMaxCouplingPhase) {
-      Fail(where + ": phase (" + FormatDouble(coupling.phase) + ") must be in [" +
-           FormatDouble(-kMaxCouplingPhase) + ", " + FormatDouble(kMaxCouplingPhase) + "]");
-    }
+    // Any finite phase is an angle (the random gaits of Table 6.1 exceed 4π).
     if (std::fabs(coupling.weight) > kMaxCouplingWeight) {
       Fail(where + ": weight (" + FormatDouble(coupling.weight) + ") must be in [" +
            FormatDouble(-kMaxCouplingWeight) + ", " + FormatDouble(kMaxCouplingWeight) + "]");

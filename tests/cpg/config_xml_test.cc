@@ -490,7 +490,7 @@ RobotConfig RandomConfig(std::mt19937_64& rng) {
     std::shuffle(others.begin(), others.end(), rng);
     const std::size_t links = std::min<std::size_t>(others.size(), rng() % 4);
     for (std::size_t k = 0; k < links; ++k) {
-      config.couplings.push_back({from, others[k], RandomDouble(rng, false, kMaxCouplingPhase),
+      config.couplings.push_back({from, others[k], RandomDouble(rng, false, 1e6),
                                   RandomDouble(rng, false, kMaxCouplingWeight)});
     }
   }
