@@ -557,7 +557,9 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
     ++status_.relearns;
   }
   AdaptationOptions adaptation = options_.adaptation;
-  adaptation.seed = options_.adaptation.seed + static_cast<std::uint64_t>(n) - 1;
+  // One seed drives a life: the n-th relearning's budget rule and its
+  // optimizer both draw from seed + n - 1 (options_.adaptation.seed is not used).
+  adaptation.seed = options_.seed + static_cast<std::uint64_t>(n) - 1;
   const AdaptationPlan plan =
       PlanAdaptation(graph, current_.config_xml, current_.problem_xml, body_changed, adaptation);
   Event(last_robot_time_, "relearn",

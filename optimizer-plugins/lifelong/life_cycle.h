@@ -31,7 +31,7 @@ namespace yamor::lifelong {
 /// How the runner lives.
 struct LifeOptions {
   AnomalyOptions anomaly;          ///< The EMA rule.
-  AdaptationOptions adaptation;    ///< Problem generation.
+  AdaptationOptions adaptation;    ///< Problem generation (its seed is replaced by `seed`).
   double window_periods = 3;       ///< CPG periods per measurement window (thesis 7.3).
   double settle_periods = 1;       ///< Periods after a gait change before measuring.
   double trial_periods = 3;        ///< Periods of one recall trial.
@@ -58,7 +58,8 @@ struct LifeOptions {
   bool starts_upside_down = false; ///< The robot starts on its back (the reference flips).
   double max_life_seconds = 0;     ///< Stop after this much life time [s]; 0 = never.
   int max_anomalies = 0;           ///< Stop after handling this many anomalies; 0 = never.
-  std::uint64_t seed = 1;          ///< Seeds of the relearning runs (seed + n).
+  /// Seed of the n-th relearning (seed + n - 1): its budget rule and its optimizer.
+  std::uint64_t seed = 1;
   std::string out_dir;             ///< Relearning results go to out_dir/relearn-N ("" = none).
 };
 

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -404,6 +405,35 @@ TEST_F(LifeCycleTest, ATransformationRebuildsTheNetworkFromTheNewBody) {
   EXPECT_EQ(gaits[1].morphology_key, cpg::MorphologyKey(Chain(true)));
   EXPECT_NE(gaits[1].morphology_key, gaits[0].morphology_key);
   EXPECT_EQ(s.status.anomalies, 1);
+}
+
+// `yamor-lifelong --seed` is the life's one seed: a rebuilt network's budget
+// rule draws from it as the optimizer does (it used to keep the budget rule
+// at seed 1 whatever --seed said).
+TEST_F(LifeCycleTest, TheLifeSeedSeedsTheBudgetRule) {
+  int lives = 0;
+  auto free_set_at = [&](std::uint64_t seed) {
+    MemoryLog log;
+    FakeRobot robot;
+    FakeRelearner relearner{robot};
+    GaitDatabase db((dir_ / ("life-" + std::to_string(++lives) + ".sqlite")).string());
+    robot.schedule.emplace(60, [](FakeRobot& r) { r.Transform(); });
+    LifeOptions o = Options(200);
+    o.seed = seed;
+    o.adaptation.seed = 1;  // ignored: the life's seed decides
+    o.adaptation.max_free = 2;
+    LifeCycle life(robot, relearner, db, log, o);
+    life.Run({.config_xml = kChainConfig, .problem_xml = ChainProblem(), .source = "chain"});
+    EXPECT_EQ(log.Of("relearn").size(), 1u);
+    EXPECT_EQ(relearner.requests.size(), 1u);
+    if (relearner.requests.empty()) return std::string();
+    EXPECT_EQ(relearner.requests[0].seed, seed);
+    return MemoryLog::Field(*log.Of("relearn")[0], "free");
+  };
+  std::set<std::string> seen;
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) seen.insert(free_set_at(seed));
+  EXPECT_GT(seen.size(), 1u) << "every seed fixed the same parameters: " << *seen.begin();
+  EXPECT_EQ(free_set_at(5), free_set_at(5));
 }
 
 TEST_F(LifeCycleTest, TurnedOverTheAccelerometerTriggersAndTheGaitIsStoredUpsideDown) {
