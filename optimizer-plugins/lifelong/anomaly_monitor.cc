@@ -34,6 +34,10 @@ void ValidateAnomalyOptions(const AnomalyOptions& options) {
     throw Error(StatusCode::kInvalidArgument, "increase confirmations " +
                                                   std::to_string(options.increase_confirmations) + " must be >= 1");
   }
+  if (options.noisy_confirmations < 1) {
+    throw Error(StatusCode::kInvalidArgument, "noisy-gait confirmations " +
+                                                  std::to_string(options.noisy_confirmations) + " must be >= 1");
+  }
   if (options.confirmations < 1) {
     throw Error(StatusCode::kInvalidArgument,
                 "anomaly confirmations " + std::to_string(options.confirmations) + " must be >= 1");
@@ -63,11 +67,14 @@ AnomalyMonitor::AnomalyMonitor(AnomalyOptions options) : options_(std::move(opti
   ValidateAnomalyOptions(options_);
 }
 
+double AnomalyMonitor::RuleThreshold() const {
+  return options_.relative ? options_.threshold * std::max(std::fabs(ema_), options_.min_reference)
+                           : options_.threshold;
+}
+
 double AnomalyMonitor::Threshold() const {
   if (!initialised_) return 0;
-  const double rule = options_.relative ? options_.threshold * std::max(std::fabs(ema_), options_.min_reference)
-                                        : options_.threshold;
-  return std::max(rule, options_.noise_factor * noise_);
+  return std::max(RuleThreshold(), options_.noise_factor * noise_);
 }
 
 Observation AnomalyMonitor::Observe(double velocity) {
@@ -118,8 +125,11 @@ Observation AnomalyMonitor::Observe(double velocity) {
   // A rise must last: one fast window is noise more often than a better
   // ground, and taking it as the new level would make the next ordinary
   // window look like a drop.
-  const int needed = sign < 0 ? options_.confirmations
-                              : std::max(options_.confirmations, options_.increase_confirmations);
+  const bool noise_sets_band = options_.noise_factor * noise_ > RuleThreshold();
+  const int needed =
+      sign > 0 ? std::max(options_.confirmations, options_.increase_confirmations)
+      : noise_sets_band ? std::max(options_.confirmations, options_.noisy_confirmations)
+                        : options_.confirmations;
   if (pending_ < needed) {
     o.verdict = Verdict::kSuspect;
     o.ema = ema_;

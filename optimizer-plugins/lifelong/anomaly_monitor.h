@@ -14,7 +14,8 @@
 // learn_windows windows of a gait only learn v (their mean) and the window
 // noise d (their mean absolute deviation); from then on
 // t = max(threshold·max(|v|, min_reference), noise_factor·d), and d follows
-// the in-band windows with the same EMA as v. noise_factor = 0 is the
+// the in-band windows with the same EMA as v. While the noise sets t, a drop
+// must last noisy_confirmations windows. noise_factor = 0 is the
 // thesis's rule exactly (the first window initialises v, the next one may
 // alarm).
 #pragma once
@@ -48,6 +49,14 @@ struct AnomalyOptions {
   /// (1: the thesis's rule, every such window). While fewer were seen the
   /// verdict is kSuspect and v is not updated.
   int confirmations = 1;
+  /// Consecutive windows below the band needed before a drop is reported
+  /// while the window noise sets the band (noise_factor·d above the relative
+  /// rule; at least `confirmations`). A gait that measures that unevenly
+  /// dips below the band now and then without anything having changed (the
+  /// configured wheel: 3 drops in 30 min at 1 window, none at 2); a real
+  /// change lasts. A steady gait, whose band the rule sets, keeps
+  /// `confirmations`.
+  int noisy_confirmations = 2;
   /// Consecutive windows above the band needed before an increase is
   /// reported (at least `confirmations`): a single fast window is kept out.
   int increase_confirmations = 2;
@@ -58,8 +67,8 @@ struct AnomalyOptions {
 
 /// Checks `options` and throws yamor::Error kInvalidArgument naming the bad
 /// field (threshold <= 0 or not finite, smoothing outside [0, 1),
-/// min_reference < 0, noise_factor < 0, learn_windows < 1, confirmations or
-/// increase_confirmations < 1).
+/// min_reference < 0, noise_factor < 0, learn_windows < 1, confirmations,
+/// noisy_confirmations or increase_confirmations < 1).
 void ValidateAnomalyOptions(const AnomalyOptions& options);
 
 /// What one observation meant.
@@ -119,6 +128,8 @@ class AnomalyMonitor {
   double ema() const { return ema_; }
   /// The absolute threshold for the current v [m/s].
   double Threshold() const;
+  /// The threshold the EMA rule alone gives (no noise floor) [m/s].
+  double RuleThreshold() const;
   /// The window noise d [m/s] (0 while unknown).
   double noise() const { return noise_; }
   /// The options in use.

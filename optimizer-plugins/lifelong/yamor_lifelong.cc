@@ -145,6 +145,9 @@ int main(int argc, char** argv) {
                  "Consecutive faster windows before an increase counts")->capture_default_str();
   app.add_option("--confirmations", life.anomaly.confirmations,
                  "Consecutive out-of-band windows before an anomaly")->capture_default_str();
+  app.add_option("--noisy-confirmations", life.anomaly.noisy_confirmations,
+                 "Consecutive windows below the band before a drop while the window noise sets the band")
+      ->capture_default_str();
   app.add_option("--window-periods", life.window_periods, "CPG periods per measurement window")
       ->capture_default_str();
   app.add_option("--settle-periods", life.settle_periods, "CPG periods after a gait change before measuring")
