@@ -119,6 +119,12 @@ Observation AnomalyMonitor::Observe(double velocity) {
     o.ema = ema_;
     return o;
   }
+  // An out-of-band window counts in the noise at the band's edge: d learned
+  // from in-band windows alone never sees the tail, shrinks, and narrows the
+  // band until an erratic gait alarms on its own noise (the configured wheel,
+  // world seed 3: two drops in 30 min); clipped at t, a real change cannot
+  // blow it up either.
+  if (options_.noise_factor > 0) noise_ = options_.smoothing * noise_ + (1 - options_.smoothing) * t;
   const int sign = deviation < 0 ? -1 : 1;
   pending_ = (pending_sign_ == sign) ? pending_ + 1 : 1;
   pending_sign_ = sign;

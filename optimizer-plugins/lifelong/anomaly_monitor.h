@@ -14,7 +14,8 @@
 // learn_windows windows of a gait only learn v (their mean) and the window
 // noise d (their mean absolute deviation); from then on
 // t = max(threshold·max(|v|, min_reference), noise_factor·d), and d follows
-// the in-band windows with the same EMA as v. While the noise sets t, a drop
+// the windows with the same EMA as v (an out-of-band window counted as a
+// deviation of t). While the noise sets t, a drop
 // must last noisy_confirmations windows. noise_factor = 0 is the
 // thesis's rule exactly (the first window initialises v, the next one may
 // alarm).
