@@ -345,7 +345,7 @@ def part_false_alarm(args, bins, hosts: Hosts, pool_hosts: list[str], out: Path,
     folder = out / "false-alarm"
     jobs = []
     with concurrent.futures.ThreadPoolExecutor(len(pool_hosts)) as ex:
-        for robot in ROBOTS:
+        for robot in args.robots.split(","):
             for seed in args.seed_list:
                 path = folder / robot / f"seed-{seed}" / "walk.toml"
                 path.parent.mkdir(parents=True, exist_ok=True)
@@ -393,6 +393,7 @@ def parse_args(argv):
     parser.add_argument("--offline-plugins", default="powell,cmaes",
                         help="plugins of the offline reference runs (the best counts)")
     parser.add_argument("--false-alarm-time", type=float, default=1800)
+    parser.add_argument("--robots", default=",".join(ROBOTS), help="false-alarm: robots of configs/robots")
     parser.add_argument("--quick", action="store_true", help="tiny settings for tests")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
@@ -406,6 +407,9 @@ def parse_args(argv):
                       "--trial-periods", "1.5", "--model-warmup", "1", "--model-duration", "2"]
     else:
         args.short = []
+    for robot in args.robots.split(","):
+        if robot not in ROBOTS:
+            parser.error(f"unknown robot {robot!r} (choose from {', '.join(ROBOTS)})")
     if args.seeds < 1 or args.daemons < 1:
         parser.error("--seeds and --daemons must be at least 1")
     args.seed_list = list(range(1, args.seeds + 1))
