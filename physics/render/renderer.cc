@@ -20,8 +20,6 @@ namespace {
 
 using internal::GlFunctions;
 
-constexpr Color kGridFineColor = {0.71f, 0.69f, 0.63f};
-constexpr Color kGridCoarseColor = {0.58f, 0.56f, 0.51f};
 constexpr Color kLedColor = {1.0f, 0.08f, 0.05f};
 constexpr Color kLegendColor = {0.16f, 0.16f, 0.18f};
 constexpr Color kTextColor = {1.0f, 1.0f, 1.0f};
@@ -31,10 +29,6 @@ constexpr double kFineGridExtent = 3.0;     // half-width of the 10 cm grid [m]
 constexpr double kCoarseGridExtent = 40.0;  // half-width of the 1 m grid [m]
 constexpr double kGroundExtent = 150.0;     // half-width of the ground quad [m]
 constexpr double kLedSize = 0.008;          // [m]
-// Grid lines are drawn only where neighbouring lines of the same grid land
-// at least this many pixels apart (GridRadius): closer lines merge into a
-// grey band that costs llvmpipe as much as a visible grid.
-constexpr double kMinGridSpacingPx = 4.0;
 
 Color Scale(const Color& c, float k) { return {c[0] * k, c[1] * k, c[2] * k}; }
 Color Mix(const Color& a, const Color& b, float t) {
