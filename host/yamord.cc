@@ -38,6 +38,7 @@
 #include "host/service.h"
 #include "host/settings.h"
 #include "host/worlds.h"
+#include "physics/render/raster_threads.h"
 
 namespace {
 
@@ -58,7 +59,11 @@ int Run(int argc, char** argv, const sigset_t& signals) {
       "master node (serial port, /dev/rfcomm0) or yamor-bridge (its pty, or --tcp) instead of\n"
       "opening a world. A device that cannot be opened at start is an error: yamord prints\n"
       "why and exits with status 2. A link lost later makes robot calls fail with\n"
-      "UNAVAILABLE; the next call reopens it.");
+      "UNAVAILABLE; the next call reopens it.\n"
+      "Rendering (RenderFrame, RecordFrames, filmed Evaluate): Mesa's llvmpipe rasterises on\n"
+      "the calling thread (yamord sets LP_NUM_THREADS=0 unless it is set; LP_NUM_THREADS=N\n"
+      "gives each renderer N rasteriser threads). YAMOR_RENDER_BACKEND=osmesa|egl|none\n"
+      "chooses the GL library.");
   auto* backend = app.add_option("--backend", flags.backend,
                                  "Robot backend: sim (in-process simulation) or serial (--device)");
   auto* device = app.add_option("--device", flags.device,
@@ -251,6 +256,9 @@ int Run(int argc, char** argv, const sigset_t& signals) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Before any thread starts: llvmpipe rasterises frames on the rendering
+  // thread unless the user set LP_NUM_THREADS (raster_threads.h says why).
+  yamor::render::DefaultToOneRasterThread();
   // Block the stop signals in every thread (gRPC's included, so block before
   // any starts); main waits for them with sigwait.
   sigset_t signals;

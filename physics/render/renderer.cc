@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -19,8 +20,6 @@ namespace {
 
 using internal::GlFunctions;
 
-constexpr Color kGridFineColor = {0.71f, 0.69f, 0.63f};
-constexpr Color kGridCoarseColor = {0.58f, 0.56f, 0.51f};
 constexpr Color kLedColor = {1.0f, 0.08f, 0.05f};
 constexpr Color kLegendColor = {0.16f, 0.16f, 0.18f};
 constexpr Color kTextColor = {1.0f, 1.0f, 1.0f};
@@ -298,6 +297,22 @@ Eigen::Vector3d LightDirection(const Scene& scene) {
   return (up - 0.3 * e1 - 0.45 * e2).normalized();
 }
 
+// The radius around the eye's foot point on the ground (z = 0) within which
+// lines `spacing` metres apart are at least kMinGridSpacingPx apart in the
+// image, or infinity when the eye is not above the ground. A ground point at
+// distance D from an eye h above the ground shows a step s as at least
+// f·s·h/D² pixels (f: focal length in pixels; the step along the line of
+// sight, foreshortened by h/D) and a step across it as f·s/D; so lines
+// within D² <= f·s·h/k are at least k pixels apart in every direction.
+// Returns 0 when the lines would be closer than that everywhere.
+double GridRadius(const View& view, double spacing) {
+  const double h = view.eye.z();
+  if (!(h > 0.0)) return std::numeric_limits<double>::infinity();
+  const double focal = view.projection(1, 1) * 0.5 * view.height;
+  const double d2 = focal * spacing * h / kMinGridSpacingPx;
+  return d2 > h * h ? std::sqrt(d2 - h * h) : 0.0;
+}
+
 Color BodyColor(const SceneModule& m) {
   const Color base = ModuleColor(m.id);
   return m.defective ? Mix(base, Color{0.35f, 0.35f, 0.35f}, 0.6f) : base;
@@ -426,23 +441,46 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   if (options.grid) {
     batch.Clear();
     gl.LineWidth(1.0f);
-    // Lines every `spacing` metres within `extent` of the centre, leaving
-    // out those on every `skip`-th line (drawn by the coarser grid anyway).
+    // Lines every `spacing` metres within `extent` of the centre and within
+    // GridRadius of the eye's foot point (farther away they would crowd into
+    // a band: the 10 cm grid shows around the robot, the 1 m grid farther),
+    // leaving out those on every `skip`-th line (drawn by the coarser grid).
+    const double ex = view.eye.x();
+    const double ey = view.eye.y();
     auto lines = [&](double spacing, double extent, int skip, const Color& color) {
       const long long jx = std::llround(cx / spacing);
       const long long jy = std::llround(cy / spacing);
       const double ox = static_cast<double>(jx) * spacing;
       const double oy = static_cast<double>(jy) * spacing;
       const int n = static_cast<int>(std::round(extent / spacing));
+      const double radius = GridRadius(view, spacing);
       const auto rgba = Rgba(color);
+      // The part of the line at `offset` from the eye's foot point along one
+      // axis that lies within `radius`, as the span [lo, hi] along the other
+      // axis (centred on `e`, clipped to the grid's square [o - extent, o + extent]).
+      auto span = [&](double offset, double e, double o, double& lo, double& hi) {
+        lo = o - extent;
+        hi = o + extent;
+        if (std::isinf(radius)) return true;
+        const double w2 = radius * radius - offset * offset;
+        if (w2 <= 0.0) return false;
+        const double w = std::sqrt(w2);
+        lo = std::max(lo, e - w);
+        hi = std::min(hi, e + w);
+        return lo < hi;
+      };
+      double lo = 0.0;
+      double hi = 0.0;
       for (int i = -n; i <= n; ++i) {
-        if (skip == 0 || (jx + i) % skip != 0) {
-          batch.Add(Eigen::Vector3d(ox + i * spacing, oy - extent, 0.0), rgba);
-          batch.Add(Eigen::Vector3d(ox + i * spacing, oy + extent, 0.0), rgba);
+        const double x = ox + i * spacing;
+        if ((skip == 0 || (jx + i) % skip != 0) && span(x - ex, ey, oy, lo, hi)) {
+          batch.Add(Eigen::Vector3d(x, lo, 0.0), rgba);
+          batch.Add(Eigen::Vector3d(x, hi, 0.0), rgba);
         }
-        if (skip == 0 || (jy + i) % skip != 0) {
-          batch.Add(Eigen::Vector3d(ox - extent, oy + i * spacing, 0.0), rgba);
-          batch.Add(Eigen::Vector3d(ox + extent, oy + i * spacing, 0.0), rgba);
+        const double y = oy + i * spacing;
+        if ((skip == 0 || (jy + i) % skip != 0) && span(y - ey, ex, ox, lo, hi)) {
+          batch.Add(Eigen::Vector3d(lo, y, 0.0), rgba);
+          batch.Add(Eigen::Vector3d(hi, y, 0.0), rgba);
         }
       }
     };

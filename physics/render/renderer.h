@@ -4,7 +4,8 @@
 //
 // A frame shows every module's body and handle boxes in the module's colour
 // (ModuleColor) with darker edges, the central module's LED, the ground with
-// a 10 cm and 1 m grid, static boxes, shadows on the ground (a light from
+// a 10 cm and 1 m grid (each where its lines are kMinGridSpacingPx apart or
+// more), static boxes, shadows on the ground (a light from
 // above, so a part touching the ground meets its shadow), the module ids
 // next to the modules and a legend strip (colour, id, simulated time).
 // The same scene, camera, size and options give the same bytes.
@@ -65,6 +66,15 @@ struct RenderOptions {
 
 /// Colour of the ground (without grid and shadows), RGB 0..1.
 inline constexpr Color kGroundColor = {0.78f, 0.76f, 0.70f};
+/// Colour of the 10 cm grid lines, RGB 0..1.
+inline constexpr Color kGridFineColor = {0.71f, 0.69f, 0.63f};
+/// Colour of the 1 m grid lines, RGB 0..1.
+inline constexpr Color kGridCoarseColor = {0.58f, 0.56f, 0.51f};
+/// Grid lines are drawn only where neighbouring lines of their grid land at
+/// least this many pixels apart in the image [px]: closer ones merge into a
+/// grey band that costs as much to draw as a visible grid (the 10 cm grid
+/// shows around the robot, the 1 m grid farther out; docs/benchmarks.md).
+inline constexpr double kMinGridSpacingPx = 4.0;
 /// Colour of a static box (a table, a platform) without lighting, RGB 0..1.
 inline constexpr Color kStaticBoxColor = {0.62f, 0.58f, 0.52f};
 /// Colour of the background above the horizon, RGB 0..1.

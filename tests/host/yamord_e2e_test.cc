@@ -9,8 +9,12 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
+#include <string>
 #include <thread>
 
 #include "bridge/bridge_server.h"
@@ -185,6 +189,58 @@ TEST(YamordTest, FramesOnAHeadlessMachineAndUnavailableWithoutARenderer) {
   EXPECT_EQ(time.seconds(), 0.0) << "a failed render leaves the robot alone";
   c.daemon->Signal(SIGINT);
   EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+}
+
+// Threads of process `pid` whose name starts with "llvmpipe-" (Mesa's
+// rasteriser threads name themselves so).
+int LlvmpipeThreads(pid_t pid) {
+  int n = 0;
+  const std::filesystem::path tasks = "/proc/" + std::to_string(pid) + "/task";
+  for (const auto& task : std::filesystem::directory_iterator(tasks)) {
+    std::ifstream comm(task.path() / "comm");
+    std::string name;
+    std::getline(comm, name);
+    n += name.rfind("llvmpipe-", 0) == 0;
+  }
+  return n;
+}
+
+// yamord rasterises frames on the rendering thread (LP_NUM_THREADS=0, set
+// first thing in main) unless the user asked for llvmpipe's threads.
+TEST(YamordTest, FramesAreRasterisedWithoutLlvmpipeThreadsUnlessTheUserAsks) {
+  const char* saved = std::getenv("LP_NUM_THREADS");
+  const std::optional<std::string> user = saved ? std::optional<std::string>(saved) : std::nullopt;
+  for (const char* value : {static_cast<const char*>(nullptr), "2"}) {
+    SCOPED_TRACE(value ? std::string("LP_NUM_THREADS=") + value : "LP_NUM_THREADS unset");
+    if (value) {
+      ::setenv("LP_NUM_THREADS", value, 1);
+    } else {
+      ::unsetenv("LP_NUM_THREADS");
+    }
+    // Mesa's software driver even where EGL could reach a GPU (which starts
+    // no llvmpipe threads): the child inherits the environment as set here.
+    ::setenv("LIBGL_ALWAYS_SOFTWARE", "1", 0);
+    Connection c;
+    if (user) {
+      ::setenv("LP_NUM_THREADS", user->c_str(), 1);
+    } else {
+      ::unsetenv("LP_NUM_THREADS");
+    }
+    ASSERT_GT(c.port, 0);
+    v1::RenderFrameRequest request;
+    request.set_width(320);
+    request.set_height(240);
+    v1::RenderFrameResponse frame;
+    const grpc::Status status = Call(*c.stub, &v1::Host::Stub::RenderFrame, request, &frame);
+    if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
+      GTEST_SKIP() << "no renderer here: " << status.error_message();
+    }
+    ASSERT_OK(status);
+    EXPECT_EQ(frame.png().substr(1, 3), "PNG");
+    EXPECT_EQ(LlvmpipeThreads(c.daemon->pid()), value ? 2 : 0);
+    c.daemon->Signal(SIGINT);
+    EXPECT_EQ(c.daemon->WaitForExit(std::chrono::seconds(20)), 0);
+  }
 }
 
 TEST(YamordTest, SigtermDuringALongSleepDrainsAndExitsZero) {

@@ -113,6 +113,9 @@ class YamordProcess {
     return -1;
   }
 
+  /// The child's process id (-1 once reaped).
+  pid_t pid() const { return pid_; }
+
   /// Sends `signal`.
   void Signal(int signal) {
     if (pid_ > 0) kill(pid_, signal);

@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -33,6 +34,7 @@
 #include "cpg/config_xml.h"
 #include "host/config_frames.h"
 #include "physics/render/image.h"
+#include "physics/render/raster_threads.h"
 #include "physics/render/renderer.h"
 #include "physics/render/video.h"
 
@@ -193,7 +195,13 @@ void WritePng(const std::string& path, const yamor::render::Image& image) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // As yamord does: one rasteriser thread unless LP_NUM_THREADS is set
+  // (LP_NUM_THREADS=2 measures llvmpipe's default on this machine's 2 cores).
+  const bool one_raster_thread = yamor::render::DefaultToOneRasterThread();
   CLI::App app{"render_bench: headless rendering cost (docs/benchmarks.md)"};
+  app.footer(
+      "LP_NUM_THREADS: llvmpipe's rasteriser threads per GL context; render_bench, like yamord,\n"
+      "sets 0 (rasterise on the calling thread) unless it is set.");
   int frames = 40;
   std::string png_dir;
   std::string backend_name = "auto";
@@ -217,7 +225,9 @@ int main(int argc, char** argv) {
                                          : backend_name == "egl"  ? yamor::render::Backend::kEgl
                                                                   : yamor::render::Backend::kAuto;
   Renderer renderer(backend);
-  std::printf("renderer: %s\n\n", renderer.description().c_str());
+  std::printf("renderer: %s\nLP_NUM_THREADS=%s%s\n\n", renderer.description().c_str(),
+              std::getenv(yamor::render::kRasterThreadsVariable),
+              one_raster_thread ? " (render_bench's default)" : " (set by the user)");
 
   const auto quadruped = Quadruped(8.0);
   yamor::bridge::Robot snake(SnakeMorphology(64));
@@ -325,6 +335,8 @@ int main(int argc, char** argv) {
     top.target.z() = 0;
     top.height = 1.2;
     WritePng(png_dir + "/quadruped_follow.png", renderer.Render(cases[0].scene, follow, 640, 480));
+    WritePng(png_dir + "/quadruped_follow_320.png",
+             renderer.Render(cases[0].scene, follow, 320, 240));
     WritePng(png_dir + "/quadruped_top.png", renderer.Render(walked, top, 640, 480));
     WritePng(png_dir + "/snake64.png", renderer.Render(cases[1].scene, snake_view, 640, 480));
     std::printf("\nsample frames in %s\n", png_dir.c_str());

@@ -218,6 +218,82 @@ TEST_P(RenderTest, LightingKeepsTheHueShadowsAndGridDarkenTheGround) {
   EXPECT_LT(lp[0], ground[0] - 10) << Describe(lp);
 }
 
+// The ground point seen at pixel centre (x + 0.5, y + 0.5), or nullopt when
+// the pixel's ray misses the ground (sky).
+std::optional<Eigen::Vector3d> GroundAt(const View& view, int x, int y) {
+  const Eigen::Matrix4d inverse = (view.projection * view.view).inverse();
+  const double nx = 2.0 * (x + 0.5) / view.width - 1.0;
+  const double ny = 1.0 - 2.0 * (y + 0.5) / view.height;
+  const Eigen::Vector4d a = inverse * Eigen::Vector4d(nx, ny, -1.0, 1.0);
+  const Eigen::Vector4d b = inverse * Eigen::Vector4d(nx, ny, 1.0, 1.0);
+  const Eigen::Vector3d near = a.head<3>() / a.w();
+  const Eigen::Vector3d far = b.head<3>() / b.w();
+  if (near.z() <= 0.0 || far.z() >= 0.0) return std::nullopt;
+  const double t = near.z() / (near.z() - far.z());
+  return Eigen::Vector3d(near + t * (far - near));
+}
+
+// How many pixels apart lines `spacing` metres apart appear at ground point
+// `p`, in the direction they crowd most: along the line of sight.
+double ProjectedSpacing(const View& view, const Eigen::Vector3d& p, double spacing) {
+  Eigen::Vector3d away(p.x() - view.eye.x(), p.y() - view.eye.y(), 0.0);
+  away.normalize();
+  return (*Project(view, p + spacing * away) - *Project(view, p)).norm();
+}
+
+// The 10 cm grid is drawn around the robot, where its lines are a few pixels
+// apart, and left out farther away (even within 3 m, where the renderer drew
+// it before), where they would crowd into a band; the 1 m grid reaches
+// farther, by the same rule.
+TEST_P(RenderTest, FineGridAroundTheRobotOnlyCoarseGridFarther) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  Camera camera;  // the default follow camera, as videos use
+  RenderOptions options = Flat();
+  options.grid = true;
+  for (auto [w, h] : {std::pair{320, 240}, std::pair{640, 480}}) {
+    SCOPED_TRACE(fmt::format("{}x{}", w, h));
+    const Image image = renderer_->Render(scene, camera, w, h, options);
+    const View view = ComputeView(camera, scene, w, h);
+    const Eigen::Vector2d foot(view.eye.x(), view.eye.y());
+    int fine = 0;
+    int coarse = 0;
+    int crowded = 0;  // ground pixels within 3 m of the robot where 10 cm lines crowd
+    double fine_reach = 0.0;
+    double coarse_reach = 0.0;
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const std::optional<Eigen::Vector3d> g = GroundAt(view, x, y);
+        if (!g) continue;
+        const double reach = (g->head<2>() - foot).norm();
+        const double fine_spacing = ProjectedSpacing(view, *g, 0.1);
+        if (fine_spacing < 2.0 && g->head<2>().cwiseAbs().maxCoeff() < 2.9) ++crowded;
+        const auto p = image.At(x, y);
+        if (Near(p, kGridFineColor)) {
+          ++fine;
+          fine_reach = std::max(fine_reach, reach);
+          EXPECT_GE(fine_spacing, kMinGridSpacingPx - 0.5)
+              << "a 10 cm line at pixel " << x << ", " << y << " (ground " << g->x() << ", "
+              << g->y() << ") where its neighbours are " << fine_spacing << " px away";
+        } else if (Near(p, kGridCoarseColor)) {
+          ++coarse;
+          coarse_reach = std::max(coarse_reach, reach);
+          EXPECT_GE(ProjectedSpacing(view, *g, 1.0), kMinGridSpacingPx - 0.5)
+              << "a 1 m line at pixel " << x << ", " << y;
+        }
+      }
+    }
+    // Lines are there: the 10 cm grid around the robot (0.72 m from the
+    // eye's foot point), the 1 m grid reaching at least twice as far.
+    EXPECT_GT(fine, 10 * w / 32);
+    EXPECT_GT(coarse, 2 * w / 32);
+    EXPECT_GT(fine_reach, 1.0);
+    EXPECT_GT(coarse_reach, 2.0 * fine_reach);
+    // And there was ground where the old 3 m wide 10 cm grid crowded.
+    EXPECT_GT(crowded, 100);
+    if (HasFailure()) break;
+  }
+}
+
 TEST_P(RenderTest, LegendAndLabelsShowIdsAndTime) {
   Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
   const Camera camera = FixedCamera();

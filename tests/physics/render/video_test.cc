@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -12,6 +14,8 @@
 #include <iterator>
 #include <memory>
 #include <string>
+
+#include <fmt/format.h>
 
 #include "common/status.h"
 #include "physics/render/image.h"
@@ -182,6 +186,65 @@ TEST(RgbaToYuv420Test, MatchesTheBt601FormulasWithinOneStep) {
   // The extremes: black is Y 16, white Y 235, greys have no colour.
   EXPECT_EQ(yuv[0], 16);
   EXPECT_EQ(yuv[1], 235);
+}
+
+// Every sample of every plane, at even and odd sizes (whole 2x2 blocks and
+// those that take padding go different ways), against the formulas, with
+// the padding black.
+TEST(RgbaToYuv420Test, EverySampleAtEvenAndOddSizes) {
+  uint32_t state = 12345;
+  auto next = [&state] {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<uint8_t>(state >> 24);
+  };
+  for (auto [w, h] : {std::pair{1, 1}, std::pair{2, 2}, std::pair{3, 2}, std::pair{2, 3},
+                      std::pair{5, 7}, std::pair{8, 6}, std::pair{33, 17}, std::pair{320, 240}}) {
+    SCOPED_TRACE(fmt::format("{}x{}", w, h));
+    Image image{.width = w, .height = h};
+    for (int i = 0; i < w * h; ++i) {
+      image.rgba.insert(image.rgba.end(), {next(), next(), next(), 255});
+    }
+    std::vector<uint8_t> yuv;
+    RgbaToYuv420(image, yuv);
+    const int ew = w + (w & 1);
+    const int eh = h + (h & 1);
+    ASSERT_EQ(yuv.size(), static_cast<std::size_t>(ew * eh + 2 * (ew / 2) * (eh / 2)));
+    auto px = [&](int x, int y, int c) {
+      return x < w && y < h ? image.rgba[(y * w + x) * 4 + c] / 255.0 : 0.0;  // padding: black
+    };
+    int bad = 0;
+    for (int y = 0; y < eh; ++y) {
+      for (int x = 0; x < ew; ++x) {
+        const double want =
+            16 + 65.481 * px(x, y, 0) + 128.553 * px(x, y, 1) + 24.966 * px(x, y, 2);
+        if (std::abs(yuv[y * ew + x] - want) > 1.0 && ++bad < 5) {
+          ADD_FAILURE() << "Y at " << x << "," << y << ": " << int{yuv[y * ew + x]} << " not "
+                        << want;
+        }
+      }
+    }
+    const int cw = ew / 2;
+    const int ch = eh / 2;
+    for (int y = 0; y < ch; ++y) {
+      for (int x = 0; x < cw; ++x) {
+        double r = 0, g = 0, b = 0;
+        for (int d = 0; d < 4; ++d) {
+          r += px(2 * x + d % 2, 2 * y + d / 2, 0) / 4;
+          g += px(2 * x + d % 2, 2 * y + d / 2, 1) / 4;
+          b += px(2 * x + d % 2, 2 * y + d / 2, 2) / 4;
+        }
+        const double cb = 128 - 37.797 * r - 74.203 * g + 112.0 * b;
+        const double cr = 128 + 112.0 * r - 93.786 * g - 18.214 * b;
+        const int got_cb = yuv[ew * eh + y * cw + x];
+        const int got_cr = yuv[ew * eh + cw * ch + y * cw + x];
+        if ((std::abs(got_cb - cb) > 1.0 || std::abs(got_cr - cr) > 1.0) && ++bad < 5) {
+          ADD_FAILURE() << "Cb/Cr at " << x << "," << y << ": " << got_cb << "/" << got_cr
+                        << " not " << cb << "/" << cr;
+        }
+      }
+    }
+    EXPECT_EQ(bad, 0);
+  }
 }
 
 TEST(RgbaToYuv420Test, OddSizesArePaddedWithBlackAndBadImagesRefused) {
