@@ -2,19 +2,13 @@
 // evaluation builds its own emulated robot from a morphology and a
 // configuration with named parameter values applied, configures it over SNP,
 // runs a warm-up and a measured span, and reports the velocity of thesis
-// 6.2.1. Evaluations run on a fixed pool of worker threads.
+// 6.2.1. Evaluations run on the Evaluate workers (host/worker_pool.h).
 #pragma once
 
 #include <array>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
-#include <functional>
-#include <future>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -107,48 +101,5 @@ struct EvaluationResult {
 /// `cancel` fires (checked between 0.1 s chunks of simulated time).
 /// Thread-safe: evaluations share nothing.
 EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& cancel);
-
-/// A fixed pool of worker threads running queued jobs in FIFO order.
-/// Thread-safety: Submit and Shutdown may be called from any thread.
-class WorkerPool {
- public:
-  /// Starts `workers` threads (0 = std::thread::hardware_concurrency, at least 1).
-  explicit WorkerPool(unsigned workers);
-  /// Shuts down and joins.
-  ~WorkerPool();
-  WorkerPool(const WorkerPool&) = delete;
-  WorkerPool& operator=(const WorkerPool&) = delete;
-
-  /// Queues `job`; the future carries its result or exception. Throws
-  /// UNAVAILABLE after Shutdown.
-  template <typename F>
-  auto Submit(F job) -> std::future<decltype(job())> {
-    using Result = decltype(job());
-    auto task = std::make_shared<std::packaged_task<Result()>>(std::move(job));
-    std::future<Result> future = task->get_future();
-    Enqueue([task] { (*task)(); });
-    return future;
-  }
-
-  /// Number of worker threads.
-  unsigned size() const { return static_cast<unsigned>(threads_.size()); }
-  /// Jobs waiting for a worker.
-  std::size_t queued() const;
-  /// Stops accepting jobs; queued jobs still run; running jobs should watch
-  /// stopping() (via their cancel check) to end early. Joins the workers.
-  void Shutdown();
-  /// True once Shutdown was called.
-  bool stopping() const;
-
- private:
-  void Enqueue(std::function<void()> job);
-  void WorkerLoop();
-
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> jobs_;  // guarded by mutex_
-  bool stopping_ = false;                   // guarded by mutex_
-  std::vector<std::thread> threads_;        // written only in the constructor/Shutdown
-};
 
 }  // namespace yamor::host

@@ -17,6 +17,7 @@
 #include "host/driver.h"
 #include "host/builtin_robots.h"
 #include "host/evaluator.h"
+#include "host/worker_pool.h"
 #include "host/worlds.h"
 #include "yamor/v1/host.grpc.pb.h"
 

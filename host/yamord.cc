@@ -37,6 +37,7 @@
 #include "host/recording_backend.h"
 #include "host/service.h"
 #include "host/settings.h"
+#include "host/worker_pool.h"
 #include "host/worlds.h"
 #include "physics/render/raster_threads.h"
 

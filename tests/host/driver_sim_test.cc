@@ -18,6 +18,7 @@
 #include "host/evaluator.h"
 #include "host/frames.h"
 #include "host/sim_backend.h"
+#include "host/worker_pool.h"
 #include "host/worlds.h"
 #include "physics/render/image.h"
 #include "physics/script.h"

@@ -44,6 +44,7 @@
 #include "host/driver.h"
 #include "host/evaluator.h"
 #include "host/service.h"
+#include "host/worker_pool.h"
 #include "host/worlds.h"
 #include "host_bench_echo.grpc.pb.h"
 #include "yamor/v1/host.grpc.pb.h"

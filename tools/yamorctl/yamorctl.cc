@@ -75,9 +75,9 @@ struct UsageError {
 
 /// One command line's connection to the daemon plus its output streams.
 /// Thread-safety: single-threaded (one per Run call).
-class Session {
+class DaemonConnection {
  public:
-  Session(const GlobalOptions& options, std::ostream& out, std::ostream& err)
+  DaemonConnection(const GlobalOptions& options, std::ostream& out, std::ostream& err)
       : options_(options),
         out_(out),
         err_(err),
@@ -166,7 +166,7 @@ class Session {
   std::unique_ptr<v1::Host::Stub> stub_;
 };
 
-using Action = std::function<int(Session&)>;
+using Action = std::function<int(DaemonConnection&)>;
 
 std::string ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -240,7 +240,7 @@ void AddGetSet(CLI::App& app, Action& action) {
     CLI::App* g = get->add_subcommand(p.name, std::string("Get the ") + p.help + " of module ID");
     g->add_option("ID", *id, "Module id")->required();
     g->callback([&action, &p, id] {
-      action = [&p, id](Session& s) {
+      action = [&p, id](DaemonConnection& s) {
         v1::ModuleRequest request;
         request.set_module_id(*id);
         return s.Unary(p.get, request, s.Timeout(), [&](const v1::ValueResponse& r) {
@@ -252,7 +252,7 @@ void AddGetSet(CLI::App& app, Action& action) {
     st->add_option("ID", *id, "Module id")->required();
     st->add_option("VALUE", *value, std::string("New value [") + p.unit + "]")->required();
     st->callback([&action, &p, id, value] {
-      action = [&p, id, value](Session& s) {
+      action = [&p, id, value](DaemonConnection& s) {
         v1::SetModuleValueRequest request;
         request.set_module_id(*id);
         request.set_value(*value);
@@ -268,7 +268,7 @@ void AddGetSet(CLI::App& app, Action& action) {
     g->add_option("FROM", *from, "Module whose equation holds the coupling term")->required();
     g->add_option("TO", *to, "Module whose state drives it")->required();
     g->callback([&action, &p, from, to] {
-      action = [&p, from, to](Session& s) {
+      action = [&p, from, to](DaemonConnection& s) {
         v1::CouplingRequest request;
         request.set_from_id(*from);
         request.set_to_id(*to);
@@ -282,7 +282,7 @@ void AddGetSet(CLI::App& app, Action& action) {
     st->add_option("TO", *to, "Module whose state drives it")->required();
     st->add_option("VALUE", *value, "New value")->required();
     st->callback([&action, &p, from, to, value] {
-      action = [&p, from, to, value](Session& s) {
+      action = [&p, from, to, value](DaemonConnection& s) {
         v1::SetCouplingValueRequest request;
         request.set_from_id(*from);
         request.set_to_id(*to);
@@ -300,7 +300,7 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
     app.add_subcommand(name, help)->callback([&action, body] { action = body; });
   };
   const Empty empty;
-  simple("time", "Elapsed (virtual) time since the simulation was opened", [empty](Session& s) {
+  simple("time", "Elapsed (virtual) time since the simulation was opened", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::ElapsedTime, empty, s.Timeout(),
                    [](const v1::ElapsedTimeResponse& r) {
                      return fmt::format("{:.3f} s\n", r.seconds());
@@ -312,34 +312,35 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
     c->add_flag("--simulated", *simulated,
                 "The simulation's own position, whatever the position source (SimulatedPosition)");
     c->callback([&action, simulated, empty] {
-      action = [simulated, empty](Session& s) {
+      action = [simulated, empty](DaemonConnection& s) {
         return s.Unary(*simulated ? &v1::Host::Stub::SimulatedPosition
                                   : &v1::Host::Stub::RobotPosition,
                        empty, s.Timeout(), FormatPosition);
       };
     });
   }
-  simple("sim-enabled", "Whether a simulation is open", [empty](Session& s) {
+  simple("sim-enabled", "Whether a simulation is open", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::SimulationModeEnabled, empty, s.Timeout(),
                    [](const v1::SimulationModeEnabledResponse& r) {
                      return std::string(r.enabled() ? "simulation enabled\n"
                                                     : "simulation disabled\n");
                    });
   });
-  simple("close", "Close the simulation", [empty](Session& s) {
+  simple("close", "Close the simulation", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::CloseSimulation, empty, s.Timeout());
   });
-  simple("flush", "Send queued parameter changes to the robot", [empty](Session& s) {
+  simple("flush", "Send queued parameter changes to the robot", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::Flush, empty, s.Timeout(), [](const v1::FlushResponse& r) {
       return fmt::format("flushed: {} frames sent\n", r.frames_sent());
     });
   });
-  simple("refresh", "Resend every parameter (after a reopened link: relink and restore the robot)", [empty](Session& s) {
-    return s.Unary(&v1::Host::Stub::Refresh, empty, s.Timeout(), [](const v1::FlushResponse& r) {
-      return fmt::format("refreshed: {} frames sent\n", r.frames_sent());
-    });
-  });
-  simple("modules", "Ids of all modules, in configuration order", [empty](Session& s) {
+  simple("refresh", "Resend every parameter (after a reopened link: relink and restore the robot)",
+         [empty](DaemonConnection& s) {
+           return s.Unary(&v1::Host::Stub::Refresh, empty, s.Timeout(), [](const v1::FlushResponse& r) {
+             return fmt::format("refreshed: {} frames sent\n", r.frames_sent());
+           });
+         });
+  simple("modules", "Ids of all modules, in configuration order", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::GetAllModulesId, empty, s.Timeout(),
                    [](const v1::GetAllModulesIdResponse& r) {
                      std::string text;
@@ -350,23 +351,23 @@ void AddSimpleCommands(CLI::App& app, Action& action) {
                      return text + "\n";
                    });
   });
-  simple("uncouple-all", "Remove every coupling (queued until flush)", [empty](Session& s) {
+  simple("uncouple-all", "Remove every coupling (queued until flush)", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::RemoveAllCoupling, empty, s.Timeout());
   });
-  simple("info", "Daemon version, backend, world, workers", [empty](Session& s) {
+  simple("info", "Daemon version, backend, world, workers", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::GetInfo, empty, s.Timeout(), FormatInfo);
   });
-  simple("reset", "Restore the simulation to its state when opened (time 0)", [empty](Session& s) {
+  simple("reset", "Restore the simulation to its state when opened (time 0)", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::ResetSimulation, empty, s.Timeout());
   });
-  simple("upside-down", "Turn the simulated robot upside down about its centre", [empty](Session& s) {
+  simple("upside-down", "Turn the simulated robot upside down about its centre", [empty](DaemonConnection& s) {
     return s.Unary(&v1::Host::Stub::TurnUpsideDown, empty, s.Timeout());
   });
 }
 
 // ---- simulation, connection, control ---------------------------------------------
 
-void AddSessionCommands(CLI::App& app, Action& action) {
+void AddSimulationCommands(CLI::App& app, Action& action) {
   {
     struct Args {
       std::string world, morphology_file, config_file;
@@ -383,7 +384,7 @@ void AddSessionCommands(CLI::App& app, Action& action) {
     c->add_option("--seed", a->seed, "Seed of the world's random sources");
     c->add_option("--step", a->step, "Physics step [s] (0: default)");
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::OpenSimulationRequest request;
         request.set_world(a->world);
         if (!a->morphology_file.empty()) request.set_morphology_xml(ReadFile(a->morphology_file));
@@ -407,7 +408,7 @@ void AddSessionCommands(CLI::App& app, Action& action) {
         ->check(CLI::NonNegativeNumber);
     c->add_flag("--links-only", a->links_only, "Only build the links; send no configuration");
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::ConnectRobotRequest request;
         request.set_link_timeout(a->link_timeout);
         request.set_links_only(a->links_only);
@@ -430,7 +431,7 @@ void AddSessionCommands(CLI::App& app, Action& action) {
     c->add_option("--motors", a->motors, "Servo power: on|off")->check(on_off);
     c->add_option("TARGETS", a->targets, "all, or module ids")->required();
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         auto to_switch = [](const std::string& v) {
           if (v.empty()) return v1::SWITCH_UNCHANGED;
           return v == "on" ? v1::SWITCH_ON : v1::SWITCH_OFF;
@@ -463,7 +464,7 @@ void AddSessionCommands(CLI::App& app, Action& action) {
     c->add_option("SECONDS", a->seconds, "Duration [s]")->required();
     c->add_flag("--real", a->real, "Wait on the clock even in simulation");
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::SleepRequest request;
         request.set_seconds(a->seconds);
         request.set_real_time(a->real);
@@ -480,7 +481,7 @@ void AddSessionCommands(CLI::App& app, Action& action) {
         "freerun", "Step the world in the background at a real-time factor (0: off)");
     c->add_option("FACTOR", *factor, "Simulated seconds per wall-clock second")->required();
     c->callback([&action, factor] {
-      action = [factor](Session& s) {
+      action = [factor](DaemonConnection& s) {
         v1::SetFreeRunRequest request;
         request.set_real_time_factor(*factor);
         return s.Unary(&v1::Host::Stub::SetFreeRun, request, s.Timeout());
@@ -499,7 +500,7 @@ void AddSessionCommands(CLI::App& app, Action& action) {
     c->add_option("PHASE", a->phase, "Phase bias [rad]")->required();
     c->add_option("WEIGHT", a->weight, "Weight")->required();
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::AddCouplingRequest request;
         request.set_from_id(a->from);
         request.set_to_id(a->to);
@@ -532,7 +533,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     CLI::App* c = app.add_subcommand("load", "Replace the robot configuration with an XML file");
     c->add_option("FILE", *file, "Robot configuration (thesis schema)")->required();
     c->callback([&action, file] {
-      action = [file](Session& s) {
+      action = [file](DaemonConnection& s) {
         v1::LoadConfigRequest request;
         request.set_config_xml(ReadFile(*file));
         request.set_source_name(*file);
@@ -545,7 +546,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     CLI::App* c = app.add_subcommand("save", "The robot configuration as XML (stdout or FILE)");
     c->add_option("FILE", *file, "Write here instead of stdout");
     c->callback([&action, file] {
-      action = [file](Session& s) {
+      action = [file](DaemonConnection& s) {
         return s.Unary(&v1::Host::Stub::SaveConfig, Empty(), s.Timeout(),
                        [&](const v1::SaveConfigResponse& r) {
                          return XmlOut(r.config_xml(), *file);
@@ -559,7 +560,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
         "morphology", "The open world's morphology as XML (stdout or FILE)");
     c->add_option("FILE", *file, "Write here instead of stdout");
     c->callback([&action, file] {
-      action = [file](Session& s) {
+      action = [file](DaemonConnection& s) {
         return s.Unary(&v1::Host::Stub::GetMorphology, Empty(), s.Timeout(),
                        [&](const v1::GetMorphologyResponse& r) {
                          return XmlOut(r.morphology_xml(), *file);
@@ -588,7 +589,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
         ->check(CLI::IsMember(names));
     c->add_option("ANGLE", a->angle, "Connection angle [degrees], multiple of 15")->required();
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::ConnectModulesRequest request;
         request.set_from_id(a->from);
         request.set_from_connector(kConnectors.at(a->from_connector));
@@ -604,7 +605,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     CLI::App* c = app.add_subcommand("detach", "Detach module ID from the robot and put it away");
     c->add_option("ID", *id, "Module id")->required();
     c->callback([&action, id] {
-      action = [id](Session& s) {
+      action = [id](DaemonConnection& s) {
         v1::ModuleRequest request;
         request.set_module_id(*id);
         return s.Unary(&v1::Host::Stub::DisconnectModule, request, s.Timeout());
@@ -617,7 +618,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
         "script", "Run a transformation script (connect, disconnect, pause)");
     c->add_option("FILE", *file, "Script XML")->required();
     c->callback([&action, file] {
-      action = [file](Session& s) {
+      action = [file](DaemonConnection& s) {
         v1::RunTransformationScriptRequest request;
         request.set_script_xml(ReadFile(*file));
         return s.Unary(&v1::Host::Stub::RunTransformationScript, request, s.Timeout(60.0));
@@ -639,7 +640,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
         ->required()
         ->check(CLI::IsMember({"limp", "stuck", "ok"}));
     motor->callback([&action, m] {
-      action = [m](Session& s) {
+      action = [m](DaemonConnection& s) {
         v1::SetMotorDefectRequest request;
         request.set_module_id(m->id);
         request.set_defect(m->state == "limp"    ? v1::MOTOR_LIMP
@@ -656,7 +657,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
         ->required()
         ->check(CLI::IsMember({"on", "off"}));
     module->callback([&action, d] {
-      action = [d](Session& s) {
+      action = [d](DaemonConnection& s) {
         v1::SetModuleDefectRequest request;
         request.set_module_id(d->id);
         request.set_defective(d->state == "on");
@@ -678,7 +679,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     a->slope_option = c->add_option("--slope", a->slope, "Slope [rad] in [0, pi/2)");
     a->direction_option = c->add_option("--direction", a->direction, "Downhill azimuth [rad]");
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::SetGroundRequest request;
         if (a->friction_option->count()) request.set_friction(a->friction);
         if (a->slope_option->count()) request.set_slope(a->slope);
@@ -692,7 +693,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     CLI::App* c = app.add_subcommand("servos", "Servo angles of modules ID... (all when none)");
     c->add_option("ID", *ids, "Module ids");
     c->callback([&action, ids] {
-      action = [ids](Session& s) {
+      action = [ids](DaemonConnection& s) {
         v1::GetServoAnglesRequest request;
         for (uint32_t id : *ids) request.add_module_ids(id);
         return s.Unary(&v1::Host::Stub::GetServoAngles, request, s.Timeout(), FormatServoAngles);
@@ -709,7 +710,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     c->add_option("ID", a->id, "Module id")->required();
     c->add_option("--samples", a->samples, "How many, 1..16 (oldest first)");
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::GetAccelerometerRequest request;
         request.set_module_id(a->id);
         request.set_samples(a->samples);
@@ -731,7 +732,7 @@ void AddModelCommands(CLI::App& app, Action& action) {
     c->add_option("--reference", a->reference, "Upright up direction in the module frame: X Y Z")
         ->expected(3);
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         v1::GetOrientationRequest request;
         request.set_module_id(a->id);
         request.set_samples(a->samples);
@@ -786,7 +787,7 @@ void AddEvaluate(CLI::App& app, Action& action) {
       c->add_option("--slope-direction", a->direction, "Downhill azimuth of the slope [rad]");
   c->add_flag("--upside-down", a->upside_down, "Start the robot turned upside down");
   c->callback([&action, a] {
-    action = [a](Session& s) {
+    action = [a](DaemonConnection& s) {
       v1::EvaluateRequest request;
       if (!a->config_file.empty()) request.set_config_xml(ReadFile(a->config_file));
       request.set_world(a->world);
@@ -848,12 +849,12 @@ void AddWatch(CLI::App& app, Action& action, const GlobalOptions& global) {
   c->add_option("--period", a->period, "Seconds between updates (virtual time when stepped)");
   c->add_option("--count", a->count, "Stop after N updates (0: until interrupted)");
   c->callback([&action, a, &global] {
-    action = [a, &global](Session& s) {
+    action = [a, &global](DaemonConnection& s) {
       v1::WatchStateRequest request;
       request.set_period(a->period);
       grpc::ClientContext context;
       if (global.timeout_given || a->count > 0) {
-        Session::SetDeadline(context, s.Timeout(static_cast<double>(a->count) * a->period));
+        DaemonConnection::SetDeadline(context, s.Timeout(static_cast<double>(a->count) * a->period));
       }
       std::unique_ptr<grpc::ClientReader<v1::StateUpdate>> reader =
           s.stub().WatchState(&context, request);
@@ -893,11 +894,11 @@ void AddLife(CLI::App& app, Action& action, const GlobalOptions& global) {
   c->add_flag("--watch", a->watch, "Stream the life's events until it ends (or Ctrl-C)");
   c->add_flag("--replay", a->replay, "With --watch: the events so far first");
   c->callback([&action, a, &global] {
-    action = [a, &global](Session& s) {
+    action = [a, &global](DaemonConnection& s) {
       std::unique_ptr<v1::Lifelong::Stub> stub = v1::Lifelong::NewStub(s.channel());
       if (!a->watch) {
         grpc::ClientContext context;
-        Session::SetDeadline(context, s.Timeout());
+        DaemonConnection::SetDeadline(context, s.Timeout());
         v1::LifeStatus status;
         if (const int code = s.Report(stub->GetLifeStatus(&context, Empty(), &status)); code != 0) {
           return code;
@@ -908,7 +909,7 @@ void AddLife(CLI::App& app, Action& action, const GlobalOptions& global) {
       v1::WatchLifeRequest request;
       request.set_replay(a->replay);
       grpc::ClientContext context;
-      if (global.timeout_given) Session::SetDeadline(context, s.Timeout());
+      if (global.timeout_given) DaemonConnection::SetDeadline(context, s.Timeout());
       std::unique_ptr<grpc::ClientReader<v1::LifeUpdate>> reader = stub->WatchLife(&context, request);
       for (v1::LifeUpdate update; reader->Read(&update);) {
         s.Print(update, FormatLifeUpdate);
@@ -989,7 +990,7 @@ void AddSnapshot(CLI::App& app, Action& action) {
   c->add_option("FILE", a->file, "PNG file to write")->required();
   AddFrameOptions(c, *a);
   c->callback([&action, a] {
-    action = [a](Session& s) {
+    action = [a](DaemonConnection& s) {
       v1::RenderFrameRequest request;
       *request.mutable_camera() = ToCamera(*a);
       request.set_width(a->width);
@@ -1030,7 +1031,7 @@ void AddRecord(CLI::App& app, Action& action) {
               "Do not step the world: film it while others advance it (freerun, sleep)");
   AddFrameOptions(c, *a);
   c->callback([&action, a] {
-    action = [a](Session& s) {
+    action = [a](DaemonConnection& s) {
       v1::RecordFramesRequest request;
       *request.mutable_camera() = ToCamera(*a);
       request.set_width(a->width);
@@ -1043,7 +1044,7 @@ void AddRecord(CLI::App& app, Action& action) {
       // Drawing takes tens of milliseconds a frame; watching takes the world's time too.
       const double frames = std::isfinite(a->seconds * a->fps) ? a->seconds * a->fps : 0.0;
       grpc::ClientContext context;
-      Session::SetDeadline(context, s.Timeout(0.2 * frames + (a->watch ? a->seconds : 0.0)));
+      DaemonConnection::SetDeadline(context, s.Timeout(0.2 * frames + (a->watch ? a->seconds : 0.0)));
       std::unique_ptr<render::VideoWriter> writer;
       int received = 0;
       double first_time = 0, last_time = 0;
@@ -1125,7 +1126,7 @@ void AddTracking(CLI::App& app, Action& action, const GlobalOptions& global) {
         ->check(CLI::NonNegativeNumber);
     c->add_option("--samples", a->samples, "Stop after N samples (0: no limit)");
     c->callback([&action, &global, a, image] {
-      action = [&global, a, image](Session& s) {
+      action = [&global, a, image](DaemonConnection& s) {
         TrackOptions options = *a;
         options.width = (*image)[0];
         options.height = (*image)[1];
@@ -1153,7 +1154,7 @@ void AddTracking(CLI::App& app, Action& action, const GlobalOptions& global) {
     c->add_option("--output", a->options.output, "Write the calibration file here");
     a->led_height_option = c->add_option("--led-height", a->led_height, "LED height to write [m]");
     c->callback([&action, a] {
-      action = [a](Session& s) {
+      action = [a](DaemonConnection& s) {
         CalibrateOptions options = a->options;
         if (a->led_height_option->count()) options.led_height = a->led_height;
         options.json = s.json();
@@ -1223,7 +1224,7 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   Action action;
   AddGetSet(app, action);
   AddSimpleCommands(app, action);
-  AddSessionCommands(app, action);
+  AddSimulationCommands(app, action);
   AddModelCommands(app, action);
   AddEvaluate(app, action);
   AddWatch(app, action, global);
@@ -1250,7 +1251,7 @@ int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
     return kUsageExitCode;
   }
   try {
-    Session session(global, out, err);
+    DaemonConnection session(global, out, err);
     return action(session);
   } catch (const UsageError& e) {
     err << "yamorctl: " << e.message << "\n";
