@@ -231,13 +231,14 @@ ScenarioPlayer::ScenarioPlayer(Scenario scenario, v1::Host::Stub& stub, double r
                                std::function<void(double, const ScenarioChange&)> on_change)
     : scenario_(std::move(scenario)), stub_(stub), deadline_(rpc_deadline), on_change_(std::move(on_change)) {}
 
-void ScenarioPlayer::Setup() {
+void ScenarioPlayer::Setup(const std::string& config_xml) {
   grpc::ClientContext context;
   context.set_deadline(DeadlineAfter(deadline_ + 30));
   v1::OpenSimulationRequest request;
   request.set_world(scenario_.world);
   request.set_morphology_xml(scenario_.morphology_xml);
   request.set_seed(scenario_.seed);
+  request.set_config_xml(config_xml);
   v1::OpenSimulationResponse response;
   const grpc::Status s = stub_.OpenSimulation(&context, request, &response);
   if (!s.ok()) {

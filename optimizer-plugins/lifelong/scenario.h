@@ -79,8 +79,11 @@ class ScenarioPlayer {
   ScenarioPlayer(Scenario scenario, v1::Host::Stub& stub, double rpc_deadline,
                  std::function<void(double, const ScenarioChange&)> on_change = {});
 
-  /// Opens the scenario's world (OpenSimulation) with its seed.
-  void Setup();
+  /// Opens the scenario's world (OpenSimulation) with its seed and
+  /// `config_xml`, the life's starting gait. Without one the daemon keeps its
+  /// current configuration, which a previous life may have left driving a
+  /// module this world has free (an inserted one): refused.
+  void Setup(const std::string& config_xml);
   /// Makes every change due at `robot_time` that was not made yet; true when
   /// it made one. Throws yamor::Error with the daemon's code naming the
   /// change and its line.

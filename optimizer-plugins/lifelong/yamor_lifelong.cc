@@ -254,9 +254,9 @@ int main(int argc, char** argv) {
                               {"action", JsonString(c.action)},
                               {"scheduled", JsonNumber(c.at)}}});
       });
-      player->Setup();
+      player->Setup(initial.config_xml);
       port.set_before_motion([&](double t) { return player->ApplyDue(t); });
-      port.set_on_restart([&] { player->Setup(); });
+      port.set_on_restart([&] { player->Setup(initial.config_xml); });
     }
     // Pictures of the key moments, drawn by the daemon (RenderFrame).
     FramingLog framing(log, out_dir, no_frames ? std::function<std::string()>() : [&port]() {

@@ -342,6 +342,12 @@ to = 5
   EXPECT_NE(gaits[1].config_xml.find("<module realid=\"9\" amplitude=\""), std::string::npos) << gaits[1].config_xml;
   EXPECT_EQ(gaits[1].config_xml.find("<module realid=\"9\" amplitude=\"0\""), std::string::npos) << gaits[1].config_xml;
   EXPECT_NE(gaits[1].config_xml.find("<cpglink to=\"9\""), std::string::npos);
+  // The daemon now drives module 9; a second life on the same daemon opens
+  // the scenario's world, where module 9 lies free, with its own starting
+  // gait (the daemon's configuration would name a free module: refused).
+  const fs::path again = dir_ / "again";
+  ASSERT_EQ(Run(Args(scenario, again, {"--max-anomalies", "1"}), &text), 0) << text;
+  EXPECT_EQ(Field(Events(again, "anomaly")[0], "trigger"), "module_connected");
 }
 
 TEST_F(LifelongE2eTest, BackOnTheOldGroundTheOldGaitIsRecalledNotRelearned) {
