@@ -131,7 +131,9 @@ Observation AnomalyMonitor::Observe(double velocity) {
   // A rise must last: one fast window is noise more often than a better
   // ground, and taking it as the new level would make the next ordinary
   // window look like a drop.
-  const bool noise_sets_band = options_.noise_factor * noise_ > RuleThreshold();
+  // Judged on the band that judged this window (t), not on d after the
+  // update above.
+  const bool noise_sets_band = t > RuleThreshold();
   const int needed =
       sign > 0 ? std::max(options_.confirmations, options_.increase_confirmations)
       : noise_sets_band ? std::max(options_.confirmations, options_.noisy_confirmations)
