@@ -13,8 +13,6 @@
 namespace yamor::lifelong {
 namespace {
 
-constexpr const char* kOnlineBudget = "100";
-constexpr const char* kModelBudget = "400";
 // Model mode evaluates on a host pool whose workers run a batch at once, but
 // powell's default line search (brent) asks for one candidate at a time and
 // leaves all workers but one idle. A plugin offering a batch line search
@@ -100,6 +98,14 @@ void ValidateRelearnerOptions(const RelearnerOptions& options) {
   if (options.mode != "online" && options.mode != "model") {
     throw Error(StatusCode::kInvalidArgument, "relearning mode \"" + options.mode + "\" is not online or model");
   }
+  if (options.online_budget < 1) {
+    throw Error(StatusCode::kInvalidArgument,
+                "online budget " + std::to_string(options.online_budget) + " must be >= 1 trial");
+  }
+  if (options.model_budget < 1) {
+    throw Error(StatusCode::kInvalidArgument,
+                "model budget " + std::to_string(options.model_budget) + " must be >= 1 evaluation");
+  }
   if (options.verify < 1) {
     throw Error(StatusCode::kInvalidArgument, "verified candidates " + std::to_string(options.verify) + " must be >= 1");
   }
@@ -123,7 +129,8 @@ SessionRelearner::~SessionRelearner() = default;
 std::map<std::string, std::string> SessionRelearner::Fields() const {
   std::map<std::string, std::string> set = options_.set;
   if (!set.count(optimizer::kMaxEvaluationsField)) {
-    set[optimizer::kMaxEvaluationsField] = options_.mode == "online" ? kOnlineBudget : kModelBudget;
+    set[optimizer::kMaxEvaluationsField] =
+        std::to_string(options_.mode == "online" ? options_.online_budget : options_.model_budget);
   }
   if (options_.mode == "model" && !set.count(kLineSearchField)) {
     for (const optimizer::FieldSpec& f : plugin_.fields()) {

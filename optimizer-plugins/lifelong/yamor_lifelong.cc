@@ -123,7 +123,14 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"online", "model"}))->capture_default_str();
   app.add_option("--plugin", plugin, "Optimizer plugin (name or .so path)")->capture_default_str();
   app.add_option("--plugin-dir", plugin_dirs, "Extra folder to look for plugins in");
-  app.add_option("--set", sets, "Plugin field KEY=VALUE (repeatable; max_evaluations: the relearning budget)");
+  app.add_option("--set", sets,
+                 "Plugin field KEY=VALUE (repeatable; max_evaluations: the relearning budget of both modes)");
+  app.add_option("--online-budget", relearn.online_budget,
+                 "Online: trials per relearning (unless --set max_evaluations=N)")
+      ->capture_default_str();
+  app.add_option("--model-budget", relearn.model_budget,
+                 "Model mode: simulated evaluations per relearning (unless --set max_evaluations=N)")
+      ->capture_default_str();
   app.add_option("--model-hosts", model_hosts, "Model mode: yamord hosts H:P,... (default: --host)");
   app.add_option("--verify", relearn.verify, "Model mode: best candidates verified on the robot")
       ->capture_default_str();

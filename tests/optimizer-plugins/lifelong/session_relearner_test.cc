@@ -9,6 +9,8 @@
 #include <map>
 #include <string>
 
+#include "common/status.h"
+
 namespace yamor::lifelong {
 namespace {
 
@@ -26,7 +28,7 @@ std::map<std::string, std::string> FieldsOf(const std::string& plugin, const std
 TEST(SessionRelearnerTest, ModelModeUsesPowellsBatchLineSearch) {
   const auto fields = FieldsOf("powell", "model");
   EXPECT_EQ(fields.at("line_search"), "interval");
-  EXPECT_EQ(fields.at("max_evaluations"), "400");
+  EXPECT_EQ(fields.at("max_evaluations"), "300");
 }
 
 TEST(SessionRelearnerTest, OnlineKeepsThePluginsOwnLineSearch) {
@@ -44,6 +46,40 @@ TEST(SessionRelearnerTest, AGivenLineSearchWins) {
 TEST(SessionRelearnerTest, APluginWithoutALineSearchGetsNone) {
   const auto fields = FieldsOf("random", "model");
   EXPECT_EQ(fields.count("line_search"), 0u);
+}
+
+// Each mode's own budget applies unless --set gives max_evaluations, which
+// then is the budget of both.
+TEST(SessionRelearnerTest, EachModeHasItsOwnBudgetUnlessSetGivesOne) {
+  DaemonPort port(optimizer::HostAddress{.host = "127.0.0.1", .port = 1}, {});
+  RelearnerOptions options;
+  options.plugin = "powell";
+  options.plugin_dirs = {YAMOR_PLUGIN_DIR};
+  options.online_budget = 45;
+  options.model_budget = 250;
+  options.mode = "online";
+  EXPECT_EQ(SessionRelearner(port, options).Fields().at("max_evaluations"), "45");
+  options.mode = "model";
+  EXPECT_EQ(SessionRelearner(port, options).Fields().at("max_evaluations"), "250");
+  options.set = {{"max_evaluations", "60"}};
+  EXPECT_EQ(SessionRelearner(port, options).Fields().at("max_evaluations"), "60");
+  options.mode = "online";
+  EXPECT_EQ(SessionRelearner(port, options).Fields().at("max_evaluations"), "60");
+}
+
+TEST(SessionRelearnerTest, ABudgetBelowOneIsRefusedNamingIt) {
+  RelearnerOptions options;
+  options.model_budget = 0;
+  try {
+    ValidateRelearnerOptions(options);
+    FAIL() << "a model budget of 0 was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(std::string(e.what()).find("model budget 0"), std::string::npos) << e.what();
+  }
+  options.model_budget = 300;
+  options.online_budget = -3;
+  EXPECT_THROW(ValidateRelearnerOptions(options), Error);
 }
 
 }  // namespace
