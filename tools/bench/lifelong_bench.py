@@ -383,6 +383,8 @@ def parse_args(argv):
                                      epilog="\n".join(__doc__.splitlines()[2:]))
     parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated (default: all)")
     parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--seed-list", dest="seed_list_text", default=None,
+                        help="comma-separated world seeds to run instead of 1..--seeds (e.g. 4,5)")
     parser.add_argument("--daemons", type=int, default=daemons.default_daemons())
     parser.add_argument("--hosts", default=None, help="use running daemons instead (one life per daemon)")
     parser.add_argument("--out", default="results/lifelong-bench")
@@ -413,6 +415,13 @@ def parse_args(argv):
     if args.seeds < 1 or args.daemons < 1:
         parser.error("--seeds and --daemons must be at least 1")
     args.seed_list = list(range(1, args.seeds + 1))
+    if args.seed_list_text is not None:
+        try:
+            args.seed_list = [int(s) for s in args.seed_list_text.split(",")]
+        except ValueError:
+            parser.error(f"--seed-list {args.seed_list_text!r} is not a comma-separated list of integers")
+        if not args.seed_list or min(args.seed_list) < 1:
+            parser.error("--seed-list needs seeds >= 1")
     return args
 
 
