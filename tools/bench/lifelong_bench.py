@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Lifelong-learning benchmark (issue 13 §5): yamor-lifelong on the scenarios of configs/lifelong.
 
-Usage: lifelong_bench.py [--parts transform,latency,recall,false-alarm] [--seeds 5]
+Usage: lifelong_bench.py [--parts transform,latency,recall,false-alarm] [--seeds 5 | --seed-list 4,5]
                          [--daemons N] [--out results/lifelong-bench] [--build build/release]
                          [--online-budget 45] [--model-budget 400] [--offline-budget 1000]
                          [--false-alarm-time 1800] [--quick]
@@ -21,7 +21,8 @@ Parts (each reports trials, robot time and wall time separately, medians over th
                in model mode (2 cores).
   latency      every scenario: windows from the change to the anomaly (target <= 3).
   recall       ground.toml: the second and third anomaly come back from the
-               database: trials until recalled (target <= 10), no optimization.
+               database: trials until recalled (target <= 10; each window of a
+               longer trial of a noisy gait counts), no optimization.
   false-alarm  every robot of configs/robots walks its configured gait undisturbed
                for --false-alarm-time seconds of robot time (target: no anomaly).
 
@@ -383,7 +384,7 @@ def parse_args(argv):
                                      epilog="\n".join(__doc__.splitlines()[2:]))
     parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated (default: all)")
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--seed-list", dest="seed_list_text", default=None,
+    parser.add_argument("--seed-list", dest="seed_list_text", default=None, metavar="LIST",
                         help="comma-separated world seeds to run instead of 1..--seeds (e.g. 4,5)")
     parser.add_argument("--daemons", type=int, default=daemons.default_daemons())
     parser.add_argument("--hosts", default=None, help="use running daemons instead (one life per daemon)")
