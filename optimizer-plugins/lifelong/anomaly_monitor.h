@@ -133,6 +133,12 @@ class AnomalyMonitor {
   double RuleThreshold() const;
   /// The window noise d [m/s] (0 while unknown).
   double noise() const { return noise_; }
+  /// Windows observed since the last Reset or Seed (the seed counts as one).
+  int windows() const { return seen_; }
+  /// True once d is learned: noise_factor > 0 and learn_windows windows seen.
+  bool noise_learned() const {
+    return initialised_ && options_.noise_factor > 0 && seen_ >= options_.learn_windows;
+  }
   /// The options in use.
   const AnomalyOptions& options() const { return options_; }
 

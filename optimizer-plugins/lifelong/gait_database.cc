@@ -38,7 +38,9 @@ CREATE TABLE gaits (
   acceleration_x REAL NOT NULL DEFAULT 0,
   acceleration_y REAL NOT NULL DEFAULT 0,
   acceleration_z REAL NOT NULL DEFAULT 0,
-  acceleration_spread REAL NOT NULL DEFAULT 0
+  acceleration_spread REAL NOT NULL DEFAULT 0,
+  velocity_noise REAL NOT NULL DEFAULT 0,
+  noise_windows INTEGER NOT NULL DEFAULT 0
 );
 CREATE INDEX gaits_by_body ON gaits (morphology_key, orientation);
 CREATE TABLE gait_parameters (
@@ -62,6 +64,13 @@ CREATE TABLE uses (
   outcome TEXT NOT NULL CHECK (outcome IN ('accepted', 'rejected'))
 );
 CREATE INDEX uses_by_switch ON uses (previous, gait_id, outcome);
+)sql";
+
+// Version 1 -> 2: each gait's window noise (unknown, 0, for the gaits stored before).
+constexpr const char* kMigrateV1ToV2 = R"sql(
+ALTER TABLE gaits ADD COLUMN velocity_noise REAL NOT NULL DEFAULT 0;
+ALTER TABLE gaits ADD COLUMN noise_windows INTEGER NOT NULL DEFAULT 0;
+PRAGMA user_version=2;
 )sql";
 
 double Now() {
@@ -303,6 +312,8 @@ GaitDatabase::GaitDatabase(const std::string& path, bool create) : path_(path) {
                       "; use a newer yamor-lifelong or another --db");
     } else if (version < 1) {
       throw Error(StatusCode::kDataLoss, "gait database " + path + " has no schema version");
+    } else if (version < kSchemaVersion) {
+      Migrate();
     }
   } catch (...) {
     sqlite3_close(db_);
@@ -312,6 +323,30 @@ GaitDatabase::GaitDatabase(const std::string& path, bool create) : path_(path) {
 }
 
 GaitDatabase::~GaitDatabase() { sqlite3_close(db_); }
+
+void GaitDatabase::Migrate() {
+  // One transaction for every step: a kill in the middle leaves the old
+  // version whole (the next open migrates again). The version is read again
+  // under the write lock: another process may have migrated the file since.
+  Transaction t(db_, path_);
+  int version = IntPragma(db_, path_, "PRAGMA user_version");
+  try {
+    if (version == 1) {
+      Exec(db_, path_, kMigrateV1ToV2);
+      version = 2;
+    }
+  } catch (const Error& e) {
+    // A file that says it is version 1 but has not its tables is damaged.
+    if (e.code() != StatusCode::kInternal) throw;
+    throw Error(StatusCode::kDataLoss, "gait database " + path_ + " cannot be migrated from schema version " +
+                                           std::to_string(version) + " (damaged?): " + e.what());
+  }
+  if (version != kSchemaVersion) {
+    throw Error(StatusCode::kDataLoss, "gait database " + path_ + " has schema version " +
+                                           std::to_string(version) + ", which this build cannot migrate");
+  }
+  t.Commit();
+}
 
 std::int64_t GaitDatabase::Insert(const GaitRecord& record) {
   if (record.morphology_key.empty()) throw Error(StatusCode::kInvalidArgument, "gait without a morphology key");
@@ -324,6 +359,10 @@ std::int64_t GaitDatabase::Insert(const GaitRecord& record) {
   CheckFinite(record.symptoms.acceleration_spread, "acceleration spread");
   for (double a : record.symptoms.acceleration) CheckFinite(a, "acceleration");
   for (const auto& [name, value] : record.parameters) CheckFinite(value, "parameter " + name);
+  CheckFinite(record.velocity_noise, "velocity noise");
+  if (record.velocity_noise < 0 || record.noise_windows < 0) {
+    throw Error(StatusCode::kInvalidArgument, "gait velocity noise and its window count must be >= 0");
+  }
   const double now = Now();
   std::lock_guard lock(mu_);
   Transaction t(db_, path_);
@@ -338,8 +377,9 @@ std::int64_t GaitDatabase::Insert(const GaitRecord& record) {
   Statement s(db_, path_,
               "INSERT INTO gaits (morphology_key, orientation, config_xml, problem_xml, expected_velocity, "
               "created, last_used, use_count, predecessor, origin, trigger, velocity_before, velocity_after, "
-              "has_acceleration, acceleration_x, acceleration_y, acceleration_z, acceleration_spread) "
-              "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
+              "has_acceleration, acceleration_x, acceleration_y, acceleration_z, acceleration_spread, "
+              "velocity_noise, noise_windows) "
+              "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?,?)");
   s.Bind(1, record.morphology_key)
       .Bind(2, std::string(OrientationName(record.orientation)))
       .Bind(3, record.config_xml)
@@ -361,7 +401,9 @@ std::int64_t GaitDatabase::Insert(const GaitRecord& record) {
       .Bind(15, record.symptoms.acceleration[0])
       .Bind(16, record.symptoms.acceleration[1])
       .Bind(17, record.symptoms.acceleration[2])
-      .Bind(18, record.symptoms.acceleration_spread);
+      .Bind(18, record.symptoms.acceleration_spread)
+      .Bind(19, record.velocity_noise)
+      .Bind(20, record.noise_windows);
   s.Run();
   const std::int64_t id = sqlite3_last_insert_rowid(db_);
   {
@@ -429,14 +471,41 @@ void GaitDatabase::SetExpectedVelocity(std::int64_t id, double velocity) {
   t.Commit();
 }
 
+void GaitDatabase::SetNoise(std::int64_t id, double noise, std::int64_t windows,
+                            std::optional<double> expected_velocity) {
+  CheckFinite(noise, "velocity noise");
+  if (expected_velocity) CheckFinite(*expected_velocity, "expected velocity");
+  if (noise < 0 || windows < 0) {
+    throw Error(StatusCode::kInvalidArgument, "gait velocity noise " + FormatRounded(noise) + " and its window count " +
+                                                  std::to_string(windows) + " must be >= 0");
+  }
+  std::lock_guard lock(mu_);
+  Transaction t(db_, path_);
+  Statement s(db_, path_,
+              "UPDATE gaits SET velocity_noise = ?, noise_windows = ?, "
+              "expected_velocity = coalesce(?, expected_velocity) WHERE id = ?");
+  s.Bind(1, noise).Bind(2, windows);
+  if (expected_velocity) {
+    s.Bind(3, *expected_velocity);
+  } else {
+    s.BindNull(3);
+  }
+  s.Bind(4, id);
+  s.Run();
+  if (sqlite3_changes(db_) != 1) {
+    throw Error(StatusCode::kNotFound, "gait database " + path_ + ": gait " + std::to_string(id) + " is not stored");
+  }
+  t.Commit();
+}
+
 GaitRecord GaitDatabase::ReadLocked(std::int64_t id) const {
   GaitRecord r;
   {
     Statement s(db_, path_,
                 "SELECT id, morphology_key, orientation, config_xml, problem_xml, expected_velocity, created, "
                 "last_used, use_count, predecessor, origin, trigger, velocity_before, velocity_after, "
-                "has_acceleration, acceleration_x, acceleration_y, acceleration_z, acceleration_spread "
-                "FROM gaits WHERE id = ?");
+                "has_acceleration, acceleration_x, acceleration_y, acceleration_z, acceleration_spread, "
+                "velocity_noise, noise_windows FROM gaits WHERE id = ?");
     s.Bind(1, id);
     if (!s.Step()) {
       throw Error(StatusCode::kNotFound, "gait database " + path_ + ": gait " + std::to_string(id) + " is not stored");
@@ -463,6 +532,8 @@ GaitRecord GaitDatabase::ReadLocked(std::int64_t id) const {
     r.symptoms.has_acceleration = s.Int(14) != 0;
     for (int i = 0; i < 3; ++i) r.symptoms.acceleration[i] = s.Double(15 + i);
     r.symptoms.acceleration_spread = s.Double(18);
+    r.velocity_noise = s.Double(19);
+    r.noise_windows = s.Int(20);
   }
   {
     Statement s(db_, path_, "SELECT name, value FROM gait_parameters WHERE gait_id = ? ORDER BY position");

@@ -65,6 +65,12 @@ struct GaitRecord {
   std::optional<std::int64_t> predecessor;  ///< The gait it replaced.
   Symptoms symptoms;             ///< The anomaly that led to it.
   std::string origin;            ///< "initial", "online", "model", "recalled"...
+  /// Its window noise [m/s]: the anomaly monitor's d (mean absolute deviation
+  /// of its measurement windows around the EMA) when it last walked; 0 while
+  /// unknown. A recall trial is judged against it (LifeOptions::recall_*).
+  double velocity_noise = 0;
+  /// Windows `velocity_noise` was learned from (0 while unknown).
+  std::int64_t noise_windows = 0;
 
   friend bool operator==(const GaitRecord&, const GaitRecord&) = default;
 };
@@ -106,7 +112,9 @@ enum class UseOutcome { kAccepted, kRejected };
 /// The gait database, one SQLite file.
 ///
 /// Schema versioned with PRAGMA user_version (kSchemaVersion) and marked with
-/// PRAGMA application_id; a file of a newer version is refused (kFailedPrecondition
+/// PRAGMA application_id; a file of an older version is migrated in place
+/// when opened (one transaction: a kill during it leaves the old version
+/// whole), a file of a newer version is refused (kFailedPrecondition
 /// naming the file and both versions), a file that is not a SQLite
 /// database, is damaged, or belongs to another application is refused with
 /// kDataLoss naming the file — never a crash. Journal in WAL mode with
@@ -117,8 +125,10 @@ enum class UseOutcome { kAccepted, kRejected };
 /// file (SQLite locking; a busy database is waited for up to 10 s).
 class GaitDatabase {
  public:
-  /// The schema this build writes and reads.
-  static constexpr int kSchemaVersion = 1;
+  /// The schema this build writes and reads. Version 2 added each gait's
+  /// window noise (velocity_noise, noise_windows); a version-1 file is
+  /// migrated on open (both columns 0: unknown).
+  static constexpr int kSchemaVersion = 2;
 
   /// Opens `path`, creating it (and the schema) when it does not exist and
   /// `create` is true. Throws kNotFound when it does not exist and `create`
@@ -146,6 +156,14 @@ class GaitDatabase {
   /// learned). kNotFound for an unknown id, kInvalidArgument when not finite.
   void SetExpectedVelocity(std::int64_t id, double velocity);
 
+  /// Sets the window noise of gait `id` [m/s], the windows it was learned
+  /// from and, when given, its expected velocity (the EMA the noise is
+  /// measured around), in one transaction. kNotFound for an unknown id,
+  /// kInvalidArgument for a noise that is negative or not finite, a negative
+  /// window count or an expected velocity that is not finite.
+  void SetNoise(std::int64_t id, double noise, std::int64_t windows,
+                std::optional<double> expected_velocity = std::nullopt);
+
   /// The gait with `id`, or nullopt.
   std::optional<GaitRecord> Find(std::int64_t id) const;
   /// A stored gait for the same body and orientation with exactly this
@@ -164,6 +182,8 @@ class GaitDatabase {
   const std::string& path() const { return path_; }
 
  private:
+  // Brings an older schema to kSchemaVersion (constructor only).
+  void Migrate();
   GaitRecord ReadLocked(std::int64_t id) const;
   std::vector<std::int64_t> IdsLocked(const std::string& sql, const std::vector<std::string>& args) const;
 

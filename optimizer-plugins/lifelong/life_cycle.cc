@@ -98,6 +98,20 @@ LifeCycle::LifeCycle(RobotPort& port, Relearner& relearner, GaitDatabase& db, Li
   non_negative(options_.settle_periods, "settle periods");
   non_negative(options_.quiet_periods, "quiet periods");
   non_negative(options_.recall_accept, "recall acceptance");
+  non_negative(options_.recall_noise_factor, "recall noise factor");
+  non_negative(options_.recall_fail_factor, "recall fail factor");
+  if (!(options_.recall_floor >= 0 && options_.recall_floor <= 1)) {
+    throw Error(StatusCode::kInvalidArgument,
+                "recall floor " + FormatRounded(options_.recall_floor) + " is outside [0, 1]");
+  }
+  if (options_.recall_max_windows < 1 || options_.recall_max_windows > 100) {
+    throw Error(StatusCode::kInvalidArgument, "recall windows " + std::to_string(options_.recall_max_windows) +
+                                                  " is outside [1, 100]");
+  }
+  if (options_.noise_write_windows < 0) {
+    throw Error(StatusCode::kInvalidArgument,
+                "noise write interval " + std::to_string(options_.noise_write_windows) + " must be >= 0 windows");
+  }
   non_negative(options_.max_life_seconds, "life time limit");
   if (!(options_.orientation_cos > 0 && options_.orientation_cos < 1)) {
     throw Error(StatusCode::kInvalidArgument,
@@ -206,6 +220,7 @@ LifeSummary LifeCycle::Run(const InitialGait& initial) {
       throw;
     }
   }
+  StoreNoise();
   SetState("stopped", reason);
   Event(last_robot_time_, "end", {{"reason", JsonString(reason)}});
   return LifeSummary{reason, Status()};
@@ -301,6 +316,27 @@ void LifeCycle::Step() {
     }
     current_.expected = w.velocity;
     first_window_ = FirstWindow::kNothing;
+  }
+  // The gait's window noise d and the EMA v it is measured around, from
+  // in-band windows only (an out-of-band one enters d at the band's edge,
+  // and a drop's windows are the new ground's, not the gait's). v becomes
+  // the gait's expected velocity: a recall trial is judged against v ± d,
+  // not against the one window that first set the expectation (an erratic
+  // gait's first window is off by about d itself). Written once learned,
+  // then every noise_write_windows windows and when the gait is left: each
+  // write is one transaction, so a kill -9 loses at most the last few
+  // windows' refinement, never the estimate of a gait that walked for hours
+  // (a write only at the anomaly would lose it all).
+  if ((o.verdict == Verdict::kNormal || o.verdict == Verdict::kLearning) && monitor_.noise_learned()) {
+    noise_.gait = current_.id;
+    noise_.noise = monitor_.noise();
+    noise_.ema = monitor_.ema();
+    noise_.windows = monitor_.windows();
+    noise_.valid = true;
+    if (options_.noise_write_windows > 0 &&
+        (noise_.written_windows < 0 || noise_.windows - noise_.written_windows >= options_.noise_write_windows)) {
+      StoreNoise();
+    }
   }
   if (auto anomaly = TakeEvents()) {
     anomaly->velocity_after = w.velocity;
@@ -434,6 +470,7 @@ std::pair<cpg::ModuleGraph, std::string> LifeCycle::CurrentBody(std::string* key
 
 void LifeCycle::Adapt(Anomaly anomaly, bool resumed) {
   pending_ = anomaly;
+  StoreNoise();  // the gait is left: what it learned of its noise is kept
   if (!resumed) {
     std::lock_guard lock(mu_);
     ++status_.anomalies;
@@ -507,23 +544,44 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
     SetState("recalling", "gait " + std::to_string(r.gait.id));
     port_.Walk(r.gait.config_xml);
     port_.Settle(options_.settle_periods);
-    const Window w = port_.Measure(options_.trial_periods);
-    last_robot_time_ = w.end_time;
-    {
-      std::lock_guard lock(mu_);
-      ++status_.trials;
+    // One window, or for a noisy gait whose first windows are inconclusive a
+    // few more (each one a trial): judged on the mean of the windows so far.
+    double sum = 0, mean = 0;
+    int n = 0;
+    TrialVerdict verdict;
+    while (true) {
+      if (n > 0 && Stopping()) throw Error(StatusCode::kCancelled, "stopped while recalling");
+      const Window w = port_.Measure(options_.trial_periods);
+      last_robot_time_ = w.end_time;
+      ++n;
+      sum += w.velocity;
+      mean = sum / n;
+      {
+        std::lock_guard lock(mu_);
+        ++status_.trials;
+        if (n > 1) status_.detail = "gait " + std::to_string(r.gait.id) + " window " + std::to_string(n);
+      }
+      verdict = JudgeTrial(r.gait, mean, n);
+      const char* decision = verdict.accepted ? "accepted" : verdict.longer ? "longer" : "rejected";
+      Row(w.end_time, w.velocity,
+          "recall gait " + std::to_string(r.gait.id) + (n > 1 ? " window " + std::to_string(n) : "") + " " + decision);
+      Event(w.end_time, "recall_trial",
+            {{"gait", JsonInt(r.gait.id)},
+             {"likelihood", JsonNumber(r.likelihood)},
+             {"reasons", JsonString(r.reasons)},
+             {"velocity", JsonNumber(w.velocity)},
+             {"window", JsonInt(n)},
+             {"mean", JsonNumber(mean)},
+             {"expected", JsonNumber(r.gait.expected_velocity)},
+             {"noise", JsonNumber(r.gait.velocity_noise)},
+             {"accept_level", JsonNumber(verdict.accept_level)},
+             {"fail_level", JsonNumber(verdict.fail_level)},
+             {"decision", JsonString(decision)},
+             {"accepted", JsonBool(verdict.accepted)}});
+      if (!verdict.longer) break;
     }
-    const bool accepted = w.velocity > 0 && w.velocity >= options_.recall_accept * r.gait.expected_velocity;
-    Row(w.end_time, w.velocity, "recall gait " + std::to_string(r.gait.id) + (accepted ? " accepted" : " rejected"));
-    db_.RecordUse(r.gait.id, UnixNow(), w.velocity, current_.id,
-                  accepted ? UseOutcome::kAccepted : UseOutcome::kRejected);
-    Event(w.end_time, "recall_trial",
-          {{"gait", JsonInt(r.gait.id)},
-           {"likelihood", JsonNumber(r.likelihood)},
-           {"reasons", JsonString(r.reasons)},
-           {"velocity", JsonNumber(w.velocity)},
-           {"expected", JsonNumber(r.gait.expected_velocity)},
-           {"accepted", JsonBool(accepted)}});
+    const bool accepted = verdict.accepted;
+    db_.RecordUse(r.gait.id, UnixNow(), mean, current_.id, accepted ? UseOutcome::kAccepted : UseOutcome::kRejected);
     if (accepted) {
       const std::int64_t previous = current_.id;
       current_ = Gait{.id = r.gait.id,
@@ -531,15 +589,18 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
                       .problem_xml = r.gait.problem_xml,
                       .key = key,
                       .orientation = orientation,
-                      .expected = w.velocity};
-      monitor_.Seed(w.velocity);
+                      .expected = mean};
+      monitor_.Seed(mean);
       NewGait();
       {
         std::lock_guard lock(mu_);
         ++status_.recalls;
       }
-      Event(w.end_time, "recalled",
-            {{"gait", JsonInt(current_.id)}, {"previous", JsonInt(previous)}, {"velocity", JsonNumber(w.velocity)}});
+      Event(last_robot_time_, "recalled",
+            {{"gait", JsonInt(current_.id)},
+             {"previous", JsonInt(previous)},
+             {"velocity", JsonNumber(mean)},
+             {"windows", JsonInt(n)}});
       return true;
     }
   }
@@ -688,7 +749,42 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
   first_window_ = FirstWindow::kUpdateExpected;
 }
 
+LifeCycle::TrialVerdict LifeCycle::JudgeTrial(const GaitRecord& gait, double mean, int n) const {
+  TrialVerdict v;
+  const double expected = gait.expected_velocity;
+  if (!(expected > 0)) {
+    // No positive expectation to judge against: any forward motion will do
+    // (as the plain rule: a trial >= recall_accept·E with E <= 0).
+    v.accept_level = std::max(0.0, options_.recall_accept * expected);
+    v.fail_level = v.accept_level;
+    v.accepted = mean > 0 && mean >= options_.recall_accept * expected;
+    return v;
+  }
+  const double noise = std::max(0.0, gait.velocity_noise);
+  const double root_n = std::sqrt(static_cast<double>(n));
+  const double plain = (1 - options_.recall_accept) * expected;
+  // The noise of a mean of n windows shrinks as 1/√n (independent windows).
+  const double by_noise = std::min(options_.recall_noise_factor * noise / root_n,
+                                   (1 - options_.recall_floor) * expected);
+  v.accept_level = expected - std::max(plain, by_noise);
+  v.fail_level = expected - options_.recall_fail_factor * noise / root_n;
+  v.accepted = mean > 0 && mean >= v.accept_level;
+  // A gait is noisy when its noise, not the plain fraction, sets the band;
+  // a clean gait keeps the one-window rule.
+  const bool noisy = options_.recall_noise_factor * noise > plain;
+  v.longer = !v.accepted && noisy && mean > 0 && mean >= v.fail_level && n < options_.recall_max_windows;
+  return v;
+}
+
+void LifeCycle::StoreNoise() {
+  if (!noise_.valid || noise_.windows == noise_.written_windows) return;
+  db_.SetNoise(noise_.gait, noise_.noise, noise_.windows, noise_.ema);
+  noise_.written_windows = noise_.windows;
+  if (current_.id == noise_.gait) current_.expected = noise_.ema;
+}
+
 void LifeCycle::NewGait() {
+  noise_ = NoiseSnapshot{};
   orientation_watched_ = up_.has_value();
   orientation_seen_ = 0;
   orientation_flips_ = 0;

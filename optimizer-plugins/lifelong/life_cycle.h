@@ -5,8 +5,9 @@
 //
 //   walking ──(drop | physical change | turned over)──▶ anomaly
 //   anomaly ──▶ recalling: each stored gait for this body, orientation and
-//               symptoms, most likely first, gets one short trial
-//   recalling ──(a gait reaches its expected velocity)──▶ walking
+//               symptoms, most likely first, gets one short trial (a gait
+//               whose stored window noise is large: up to a few windows)
+//   recalling ──(a gait reaches its expected velocity, within its noise)──▶ walking
 //   recalling ──(none does)──▶ relearning: rebuild the network when the body
 //               changed, else the same parameters; warm start from the
 //               current gait; store the result ──▶ walking
@@ -40,8 +41,28 @@ struct LifeOptions {
   double quiet_periods = 1;
   int max_recall = 10;             ///< Stored gaits tried per anomaly.
   /// A recalled gait is kept when its trial reaches this fraction of its
-  /// expected velocity.
+  /// expected velocity E (or what its window noise allows, below).
   double recall_accept = 0.8;
+  /// k: a trial whose mean of n windows reaches
+  ///   E − max((1 − recall_accept)·E, min(k·d/√n, (1 − recall_floor)·E))
+  /// is accepted, d the gait's stored window noise (GaitRecord::velocity_noise).
+  /// 0 (or d unknown) is the plain recall_accept rule.
+  double recall_noise_factor = 2;
+  /// Whatever its noise, a trial must reach this fraction of E (a gait
+  /// that stopped walking is never taken for a noisy one).
+  double recall_floor = 0.5;
+  /// Windows (each trial_periods long, each counted as a trial) a trial of a
+  /// noisy gait (k·d > (1 − recall_accept)·E) may grow to while it is
+  /// inconclusive: below the acceptance, but not below E − recall_fail_factor·d/√n.
+  /// 1: one window for every gait.
+  int recall_max_windows = 4;
+  /// F: a trial whose mean of n windows is below E − F·d/√n has failed (a
+  /// window that low is beyond the gait's noise; the anomaly rule's band is
+  /// 3·d as well), so a gait that does not walk any more is rejected at once.
+  double recall_fail_factor = 3;
+  /// Walking windows between writes of the current gait's window noise to
+  /// the database (besides the write when the gait is left); 0: only then.
+  int noise_write_windows = 6;
   /// |cos| between the accelerometer's mean and the upright reference
   /// beyond which the orientation is decided (else it is kept).
   double orientation_cos = 0.5;
@@ -142,6 +163,17 @@ class LifeCycle {
                const std::string& morphology_xml);
   // A new gait walks: its orientation is learned again.
   void NewGait();
+  // Writes the current gait's window noise and EMA (a snapshot from its
+  // last in-band window) when they changed since the last write.
+  void StoreNoise();
+  // How a recall trial of `gait` stands after n windows of mean `mean`.
+  struct TrialVerdict {
+    bool accepted = false;
+    bool longer = false;    // inconclusive: another window
+    double accept_level = 0;
+    double fail_level = 0;
+  };
+  TrialVerdict JudgeTrial(const GaitRecord& gait, double mean, int n) const;
   // Handles the events that came in; returns the first physical change.
   std::optional<Anomaly> TakeEvents();
   void Note(const RobotEvent& event);
@@ -181,6 +213,16 @@ class LifeCycle {
   // What the first window of a gait also does.
   enum class FirstWindow { kNothing, kRecordUse, kUpdateExpected };
   FirstWindow first_window_ = FirstWindow::kNothing;
+  // The current gait's window noise as of its last in-band window.
+  struct NoiseSnapshot {
+    std::int64_t gait = 0;
+    double noise = 0;
+    double ema = 0;  // the velocity the noise is measured around
+    int windows = 0;
+    bool valid = false;        // learned in this stint of the gait
+    int written_windows = -1;  // `windows` at the last write (-1: none)
+  };
+  NoiseSnapshot noise_;
   double offset_ = 0;     // life time = robot time + offset
   double last_robot_time_ = 0;
   int relearn_count_ = 0;

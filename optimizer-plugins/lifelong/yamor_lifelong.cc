@@ -163,6 +163,25 @@ int main(int argc, char** argv) {
   app.add_option("--max-recall", life.max_recall, "Stored gaits tried per anomaly")->capture_default_str();
   app.add_option("--recall-accept", life.recall_accept,
                  "A recalled gait is kept at this fraction of its expected velocity")->capture_default_str();
+  app.add_option("--recall-noise-factor", life.recall_noise_factor,
+                 "A recall trial of n windows may fall short of the expected velocity by this many times the "
+                 "gait's stored window noise / sqrt(n) when that is more than --recall-accept allows "
+                 "(0: --recall-accept alone)")
+      ->capture_default_str();
+  app.add_option("--recall-floor", life.recall_floor,
+                 "Whatever its noise, a recall trial must reach this fraction of the expected velocity")
+      ->capture_default_str();
+  app.add_option("--recall-windows", life.recall_max_windows,
+                 "Windows (trials) an inconclusive recall trial of a noisy gait may grow to (1: one window)")
+      ->capture_default_str();
+  app.add_option("--recall-fail-factor", life.recall_fail_factor,
+                 "A recall trial below the expected velocity minus this many times the gait's noise / sqrt(n) "
+                 "is rejected at once")
+      ->capture_default_str();
+  app.add_option("--noise-write-windows", life.noise_write_windows,
+                 "Walking windows between writes of the gait's window noise to the database (0: only when "
+                 "the gait is left)")
+      ->capture_default_str();
   app.add_option("--max-free", life.adaptation.max_free, "Free parameters of a rebuilt network")
       ->capture_default_str();
   bool base_ties_only = false;

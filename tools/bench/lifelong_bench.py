@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Lifelong-learning benchmark (issue 13 §5): yamor-lifelong on the scenarios of configs/lifelong.
 
-Usage: lifelong_bench.py [--parts transform,latency,recall,false-alarm] [--seeds 5]
+Usage: lifelong_bench.py [--parts transform,latency,recall,false-alarm] [--seeds 5 | --seed-list 4,5]
                          [--daemons N] [--out results/lifelong-bench] [--build build/release]
                          [--online-budget 45] [--model-budget 300] [--offline-budget 1000]
                          [--false-alarm-time 1800] [--quick]
@@ -21,7 +21,8 @@ Parts (each reports trials, robot time and wall time separately, medians over th
                in model mode (2 cores).
   latency      every scenario: windows from the change to the anomaly (target <= 3).
   recall       ground.toml: the second and third anomaly come back from the
-               database: trials until recalled (target <= 10), no optimization.
+               database: trials until recalled (target <= 10; each window of a
+               longer trial of a noisy gait counts), no optimization.
   false-alarm  every robot of configs/robots walks its configured gait undisturbed
                for --false-alarm-time seconds of robot time (target: no anomaly).
 
@@ -383,6 +384,8 @@ def parse_args(argv):
                                      epilog="\n".join(__doc__.splitlines()[2:]))
     parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated (default: all)")
     parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--seed-list", dest="seed_list_text", default=None, metavar="LIST",
+                        help="comma-separated world seeds to run instead of 1..--seeds (e.g. 4,5)")
     parser.add_argument("--daemons", type=int, default=daemons.default_daemons())
     parser.add_argument("--hosts", default=None, help="use running daemons instead (one life per daemon)")
     parser.add_argument("--out", default="results/lifelong-bench")
@@ -413,6 +416,13 @@ def parse_args(argv):
     if args.seeds < 1 or args.daemons < 1:
         parser.error("--seeds and --daemons must be at least 1")
     args.seed_list = list(range(1, args.seeds + 1))
+    if args.seed_list_text is not None:
+        try:
+            args.seed_list = [int(s) for s in args.seed_list_text.split(",")]
+        except ValueError:
+            parser.error(f"--seed-list {args.seed_list_text!r} is not a comma-separated list of integers")
+        if not args.seed_list or min(args.seed_list) < 1:
+            parser.error("--seed-list needs seeds >= 1")
     return args
 
 

@@ -76,6 +76,8 @@ TEST_F(GaitDatabaseTest, ARecordRoundTripsWithEveryField) {
                 .acceleration = {0.1, -0.2, -9.7},
                 .acceleration_spread = 1.25,
                 .defects = {"module 5", "motor 3 limp"}};
+  g.velocity_noise = 0.0125;
+  g.noise_windows = 37;
   std::int64_t id = 0;
   {
     GaitDatabase db(Path());
@@ -221,6 +223,143 @@ TEST_F(GaitDatabaseTest, BadRecordsAreRefused) {
   g.predecessor = 42;
   EXPECT_EQ(CodeOf([&] { db.Insert(g); }), StatusCode::kNotFound);
   EXPECT_TRUE(db.All().empty());  // nothing half-written
+}
+
+TEST_F(GaitDatabaseTest, TheWindowNoiseIsStoredInOneWrite) {
+  GaitDatabase db(Path());
+  const std::int64_t a = db.Insert(Gait("k", 0.05));
+  EXPECT_DOUBLE_EQ(db.Find(a)->velocity_noise, 0);  // unknown
+  EXPECT_EQ(db.Find(a)->noise_windows, 0);
+  db.SetNoise(a, 0.007, 12);
+  {
+    GaitDatabase other(Path(), /*create=*/false);  // committed: another connection sees it
+    EXPECT_DOUBLE_EQ(other.Find(a)->velocity_noise, 0.007);
+    EXPECT_EQ(other.Find(a)->noise_windows, 12);
+  }
+  db.SetNoise(a, 0.004, 30);
+  EXPECT_DOUBLE_EQ(db.Find(a)->velocity_noise, 0.004);
+  EXPECT_EQ(db.Find(a)->noise_windows, 30);
+  EXPECT_DOUBLE_EQ(db.Find(a)->expected_velocity, 0.05);  // nothing else changes
+  db.SetNoise(a, 0.005, 36, 0.045);  // with the EMA it is measured around
+  EXPECT_DOUBLE_EQ(db.Find(a)->velocity_noise, 0.005);
+  EXPECT_EQ(db.Find(a)->noise_windows, 36);
+  EXPECT_DOUBLE_EQ(db.Find(a)->expected_velocity, 0.045);
+  EXPECT_EQ(CodeOf([&] { db.SetNoise(a, 0.01, 3, std::numeric_limits<double>::infinity()); }),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf([&] { db.SetNoise(a + 5, 0.01, 3); }), StatusCode::kNotFound);
+  EXPECT_EQ(CodeOf([&] { db.SetNoise(a, -0.01, 3); }), StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf([&] { db.SetNoise(a, std::numeric_limits<double>::quiet_NaN(), 3); }),
+            StatusCode::kInvalidArgument);
+  EXPECT_EQ(CodeOf([&] { db.SetNoise(a, 0.01, -1); }), StatusCode::kInvalidArgument);
+  GaitRecord bad = Gait("k", 0.05);
+  bad.velocity_noise = -1;
+  EXPECT_EQ(CodeOf([&] { db.Insert(bad); }), StatusCode::kInvalidArgument);
+}
+
+// The version-1 schema as it was shipped, with one gait, written by raw SQL.
+void WriteVersionOne(const std::string& path) {
+  RawExec(path, R"sql(
+CREATE TABLE gaits (
+  id INTEGER PRIMARY KEY,
+  morphology_key TEXT NOT NULL,
+  orientation TEXT NOT NULL CHECK (orientation IN ('upright', 'upside_down')),
+  config_xml TEXT NOT NULL,
+  problem_xml TEXT NOT NULL DEFAULT '',
+  expected_velocity REAL NOT NULL,
+  created REAL NOT NULL,
+  last_used REAL NOT NULL,
+  use_count INTEGER NOT NULL DEFAULT 0,
+  predecessor INTEGER REFERENCES gaits(id),
+  origin TEXT NOT NULL DEFAULT '',
+  trigger TEXT NOT NULL DEFAULT '',
+  velocity_before REAL NOT NULL DEFAULT 0,
+  velocity_after REAL NOT NULL DEFAULT 0,
+  has_acceleration INTEGER NOT NULL DEFAULT 0,
+  acceleration_x REAL NOT NULL DEFAULT 0,
+  acceleration_y REAL NOT NULL DEFAULT 0,
+  acceleration_z REAL NOT NULL DEFAULT 0,
+  acceleration_spread REAL NOT NULL DEFAULT 0
+);
+CREATE INDEX gaits_by_body ON gaits (morphology_key, orientation);
+CREATE TABLE gait_parameters (
+  gait_id INTEGER NOT NULL REFERENCES gaits(id),
+  position INTEGER NOT NULL,
+  name TEXT NOT NULL,
+  value REAL NOT NULL,
+  PRIMARY KEY (gait_id, position)
+);
+CREATE TABLE gait_defects (
+  gait_id INTEGER NOT NULL REFERENCES gaits(id),
+  defect TEXT NOT NULL,
+  PRIMARY KEY (gait_id, defect)
+);
+CREATE TABLE uses (
+  id INTEGER PRIMARY KEY,
+  gait_id INTEGER NOT NULL REFERENCES gaits(id),
+  time REAL NOT NULL,
+  velocity REAL NOT NULL,
+  previous INTEGER,
+  outcome TEXT NOT NULL CHECK (outcome IN ('accepted', 'rejected'))
+);
+CREATE INDEX uses_by_switch ON uses (previous, gait_id, outcome);
+INSERT INTO gaits (id, morphology_key, orientation, config_xml, expected_velocity, created, last_used, use_count,
+                   origin, trigger, velocity_before, velocity_after)
+  VALUES (4, 'old-key', 'upside_down', '<yamorconfig/>', 0.031, 100, 200, 3, 'online', 'velocity_drop', 0.08, 0.01);
+INSERT INTO gait_parameters VALUES (4, 0, 'amplitude.0', 0.75);
+INSERT INTO gait_defects VALUES (4, 'motor 2 limp');
+INSERT INTO uses (gait_id, time, velocity, previous, outcome) VALUES (4, 200, 0.031, NULL, 'accepted');
+PRAGMA application_id=1497451858;
+PRAGMA user_version=1;
+)sql");
+}
+
+std::string Pragma(const std::string& path, const char* sql) {
+  sqlite3* raw = nullptr;
+  EXPECT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
+  sqlite3_stmt* s = nullptr;
+  EXPECT_EQ(sqlite3_prepare_v2(raw, sql, -1, &s, nullptr), SQLITE_OK);
+  std::string v;
+  if (sqlite3_step(s) == SQLITE_ROW) v = reinterpret_cast<const char*>(sqlite3_column_text(s, 0));
+  sqlite3_finalize(s);
+  sqlite3_close(raw);
+  return v;
+}
+
+TEST_F(GaitDatabaseTest, AVersionOneFileIsMigratedInPlaceKeepingItsGaits) {
+  WriteVersionOne(Path());
+  ASSERT_EQ(Pragma(Path(), "PRAGMA user_version"), "1");
+  {
+    GaitDatabase db(Path(), /*create=*/false);
+    const auto g = db.Find(4);
+    ASSERT_TRUE(g);
+    EXPECT_EQ(g->morphology_key, "old-key");
+    EXPECT_EQ(g->orientation, Orientation::kUpsideDown);
+    EXPECT_DOUBLE_EQ(g->expected_velocity, 0.031);
+    EXPECT_EQ(g->use_count, 3);
+    EXPECT_EQ(g->parameters, (std::vector<std::pair<std::string, double>>{{"amplitude.0", 0.75}}));
+    EXPECT_EQ(g->symptoms.defects, std::vector<std::string>{"motor 2 limp"});
+    EXPECT_DOUBLE_EQ(g->velocity_noise, 0);  // unknown until it walks again
+    EXPECT_EQ(g->noise_windows, 0);
+    db.SetNoise(4, 0.006, 9);
+    const std::int64_t b = db.Insert(Gait("old-key", 0.02));
+    EXPECT_GT(b, 4);
+  }
+  EXPECT_EQ(Pragma(Path(), "PRAGMA user_version"), std::to_string(GaitDatabase::kSchemaVersion));
+  // Opening the migrated file again changes nothing.
+  GaitDatabase db(Path(), /*create=*/false);
+  EXPECT_DOUBLE_EQ(db.Find(4)->velocity_noise, 0.006);
+  EXPECT_EQ(db.Find(4)->noise_windows, 9);
+  EXPECT_EQ(db.All().size(), 2u);
+}
+
+TEST_F(GaitDatabaseTest, AVersionOneFileWithoutItsTablesIsDataLossNotACrash) {
+  RawExec(Path(), "CREATE TABLE other (x INTEGER); PRAGMA application_id=1497451858; PRAGMA user_version=1;");
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { GaitDatabase db(Path()); }, &message), StatusCode::kDataLoss);
+  EXPECT_NE(message.find(Path()), std::string::npos) << message;
+  EXPECT_NE(message.find("migrated"), std::string::npos) << message;
+  // The failed migration changed nothing (one transaction).
+  EXPECT_EQ(Pragma(Path(), "PRAGMA user_version"), "1");
 }
 
 TEST_F(GaitDatabaseTest, AMissingFileOrFolderIsNotFound) {

@@ -114,6 +114,9 @@ class FakeRobot final : public RobotPort {
   bool rolling = false;     // the gait turns the central module over and over
   bool tilted = false;      // upside down for the accelerometer only
   int accel_reads = 0;
+  // What a window measures instead of the clean velocity of the gait (noise,
+  // an erratic gait); null: the clean velocity.
+  std::function<double(double clean, const cpg::RobotConfig& config)> adjust;
 
   double Now() override { return time; }
   Window Measure(double periods) override {
@@ -121,9 +124,11 @@ class FakeRobot final : public RobotPort {
     if (measures++ == fail_measure_at) throw Error(StatusCode::kUnavailable, "fake daemon gone");
     const double start = time;
     Advance(periods * kPeriod);
+    const cpg::RobotConfig config = cpg::ParseConfigXml(config_xml);
+    const double clean = Velocity(config, world);
     return Window{.start_time = start,
                   .end_time = time,
-                  .velocity = Velocity(cpg::ParseConfigXml(config_xml), world),
+                  .velocity = adjust ? adjust(clean, config) : clean,
                   .period = kPeriod};
   }
   void Settle(double periods) override {
@@ -283,6 +288,7 @@ class LifeCycleTest : public ::testing::Test {
   LifeOptions Options(double life_seconds) {
     LifeOptions o;
     o.max_life_seconds = life_seconds;
+    if (tweak_) tweak_(o);
     return o;
   }
   LifeSummary Live(double life_seconds, const std::string& problem = ChainProblem()) {
@@ -295,8 +301,39 @@ class LifeCycleTest : public ::testing::Test {
     return n;
   }
 
+  // A stored gait of the chain (amplitude 0.9: the slippery ground's best,
+  // 3 cm/s there) that measures erratically: expected 3 cm/s, window noise
+  // `noise`. Its recall trial windows measure `trial` in turn (then clean).
+  std::int64_t StoreErraticGait(double noise, std::vector<double> trial) {
+    cpg::RobotConfig config = cpg::ParseConfigXml(kChainConfig);
+    for (auto& m : config.modules) m.amplitude = 0.9;
+    GaitRecord g;
+    g.morphology_key = cpg::MorphologyKey(Chain(false));
+    g.config_xml = cpg::WriteConfigXml(config);
+    g.problem_xml = ChainProblem();
+    g.parameters = {{"amplitude.0", 0.9}};
+    g.expected_velocity = 0.03;
+    g.velocity_noise = noise;
+    g.noise_windows = 40;
+    g.use_count = 1;
+    g.origin = "online";
+    g.symptoms = {.trigger = "velocity_drop", .velocity_before = 0.05, .velocity_after = 0.0};
+    trial_ = std::move(trial);
+    robot_.adjust = [this](double clean, const cpg::RobotConfig& c) {
+      if (std::fabs(MeanAmplitude(c) - 0.9) > 1e-9 || next_trial_ >= trial_.size()) return clean;
+      return trial_[next_trial_++];
+    };
+    // The ground turns slippery: the initial gait (amplitude 0.5) stops.
+    robot_.schedule.emplace(100, [](FakeRobot& r) { r.world.slippery = true; });
+    return db_->Insert(g);
+  }
+  std::vector<const LifeEvent*> Trials() const { return log_.Of("recall_trial"); }
+
   fs::path dir_;
   std::unique_ptr<GaitDatabase> db_;
+  std::function<void(LifeOptions&)> tweak_;
+  std::vector<double> trial_;
+  std::size_t next_trial_ = 0;
   FakeRobot robot_;
   FakeRelearner relearner_{robot_};
   MemoryLog log_;
@@ -377,6 +414,151 @@ TEST_F(LifeCycleTest, SlipperyGroundIsRelearnedThenTheOldGaitIsRecalledBothWays)
   for (const auto& r : log_.rows) states.insert(r.state);
   EXPECT_EQ(states, (std::set<std::string>{"walking", "anomaly", "recalling", "relearning"}));
   EXPECT_EQ(s.status.gait, b.id);
+}
+
+TEST_F(LifeCycleTest, AnErraticGaitWhoseTrialLandsLowWithinItsNoiseIsRecalled) {
+  // 2.1 of 3 cm/s: below 0.8 of the expectation (the plain rule rejects it,
+  // next test), but within 2 of its 0.8 cm/s window noise.
+  const std::int64_t b = StoreErraticGait(0.008, {0.021});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.anomalies, 1);
+  EXPECT_EQ(s.status.recalls, 1);
+  EXPECT_EQ(s.status.relearns, 0);
+  EXPECT_TRUE(relearner_.requests.empty());
+  EXPECT_EQ(s.status.trials, 1);  // one window was enough
+  ASSERT_EQ(Trials().size(), 1u);
+  const LifeEvent& t = *Trials()[0];
+  EXPECT_EQ(MemoryLog::Field(t, "gait"), std::to_string(b));
+  EXPECT_EQ(MemoryLog::Field(t, "decision"), JsonString("accepted"));
+  EXPECT_EQ(MemoryLog::Field(t, "noise"), JsonNumber(0.008));
+  EXPECT_NEAR(std::stod(MemoryLog::Field(t, "accept_level")), 0.015, 1e-12);  // 3 − min(2·0.8, 0.5·3)
+  EXPECT_EQ(s.status.gait, b);
+  const GaitRecord r = *db_->Find(b);
+  EXPECT_EQ(r.use_count, 2);
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*log_.Of("recalled")[0], "velocity")), 0.021, 1e-12);
+  // Walking on, it learned its noise again (clean now) around 3 cm/s.
+  EXPECT_NEAR(r.expected_velocity, 0.03, 0.002);
+  EXPECT_LT(r.velocity_noise, 0.003);
+  EXPECT_GE(r.noise_windows, 4);
+}
+
+TEST_F(LifeCycleTest, ThePlainRuleRejectsTheSameTrialAndRelearns) {
+  tweak_ = [](LifeOptions& o) { o.recall_noise_factor = 0; };
+  StoreErraticGait(0.008, {0.021});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 0);
+  EXPECT_EQ(s.status.relearns, 1);
+  ASSERT_EQ(Trials().size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+}
+
+TEST_F(LifeCycleTest, ACleanGaitKeepsTheOneWindowRule) {
+  // Window noise 0.1 cm/s: 2·d is less than the plain 20 %, so the plain
+  // rule judges, in one window.
+  StoreErraticGait(0.001, {0.023, 0.03, 0.03});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 0);
+  EXPECT_EQ(s.status.relearns, 1);
+  ASSERT_EQ(Trials().size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*Trials()[0], "accept_level")), 0.024, 1e-12);
+}
+
+TEST_F(LifeCycleTest, AnInconclusiveTrialOfANoisyGaitGetsMoreWindowsEachATrial) {
+  // 1.0 cm/s: below the acceptance (1.5) but not below what the noise
+  // allows a failure (3 − 3·0.8 = 0.6): one more window; the mean of the two
+  // (2.0) reaches 3 − 2·0.8/√2 = 1.87.
+  const std::int64_t b = StoreErraticGait(0.008, {0.010, 0.030});
+  EXPECT_EQ(b, 1);
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 1);
+  EXPECT_EQ(s.status.relearns, 0);
+  EXPECT_EQ(s.status.trials, 2);
+  ASSERT_EQ(Trials().size(), 2u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("longer"));
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "accepted"), "false");
+  EXPECT_EQ(MemoryLog::Field(*Trials()[1], "decision"), JsonString("accepted"));
+  EXPECT_EQ(MemoryLog::Field(*Trials()[1], "window"), "2");
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*Trials()[1], "mean")), 0.02, 1e-12);
+  ASSERT_EQ(log_.Of("recalled").size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*log_.Of("recalled")[0], "windows"), "2");
+  EXPECT_EQ(MemoryLog::Field(*log_.Of("recalled")[0], "gait"), std::to_string(b));
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*log_.Of("recalled")[0], "velocity")), 0.02, 1e-12);  // the mean
+  // Each window is a row of the timeline, in the recalling state.
+  int recall_rows = 0;
+  for (const auto& r : log_.rows) recall_rows += r.state == "recalling" && std::isfinite(r.velocity);
+  EXPECT_EQ(recall_rows, 2);
+}
+
+TEST_F(LifeCycleTest, AGaitThatStoppedWalkingIsRejectedAtOnce) {
+  // 0.05 cm/s against 3 ± 0.8: below 3 − 3·0.8, beyond the gait's noise.
+  StoreErraticGait(0.008, std::vector<double>(10, 0.0005));
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 0);
+  EXPECT_EQ(s.status.relearns, 1);
+  ASSERT_EQ(Trials().size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+}
+
+TEST_F(LifeCycleTest, AVeryNoisyGaitThatStoppedWalkingIsRejectedWithinTheWindowLimit) {
+  // Noise as large as the expectation: a standstill is inside the noise for
+  // a while, but never reaches the floor (half the expectation), and the
+  // trial ends at --recall-windows.
+  StoreErraticGait(0.03, std::vector<double>(10, 0.0005));
+  const LifeSummary s = Live(250);
+  EXPECT_EQ(s.status.recalls, 0);
+  EXPECT_EQ(s.status.relearns, 1);
+  ASSERT_EQ(Trials().size(), 4u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(MemoryLog::Field(*Trials()[i], "decision"), JsonString("longer"));
+  EXPECT_EQ(MemoryLog::Field(*Trials()[3], "decision"), JsonString("rejected"));
+  for (const LifeEvent* t : Trials()) EXPECT_EQ(MemoryLog::Field(*t, "accepted"), "false");
+}
+
+TEST_F(LifeCycleTest, TheTrialWindowLimitIsAnOption) {
+  tweak_ = [](LifeOptions& o) { o.recall_max_windows = 1; };
+  StoreErraticGait(0.008, {0.010, 0.030});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 0);
+  ASSERT_EQ(Trials().size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+}
+
+TEST_F(LifeCycleTest, TheGaitsWindowNoiseIsStoredWhileItWalks) {
+  // The gait measures 5 ± 0.4 cm/s, alternately.
+  int n = 0;
+  robot_.adjust = [&n](double clean, const cpg::RobotConfig&) { return clean + (n++ % 2 ? 0.004 : -0.004); };
+  std::int64_t windows_at_150 = -1;
+  robot_.schedule.emplace(150, [&](FakeRobot&) { windows_at_150 = db_->Find(1)->noise_windows; });
+  const LifeSummary s = Live(300);
+  EXPECT_EQ(s.status.anomalies, 0);
+  // Written while walking (a kill -9 at 150 s would have kept it), not only at the end.
+  EXPECT_GE(windows_at_150, 4);
+  const GaitRecord g = *db_->Find(1);
+  EXPECT_GT(g.velocity_noise, 0.003);
+  EXPECT_LT(g.velocity_noise, 0.009);
+  EXPECT_GE(g.noise_windows, 45);  // 300 s of 6 s windows, all of this gait
+  // The expectation is the EMA the noise is measured around, not the first
+  // window (4.6 cm/s).
+  EXPECT_NEAR(g.expected_velocity, 0.05, 0.002);
+}
+
+TEST_F(LifeCycleTest, WithoutPeriodicWritesTheNoiseIsStoredWhenTheGaitIsLeft) {
+  tweak_ = [](LifeOptions& o) { o.noise_write_windows = 0; };
+  int n = 0;
+  robot_.adjust = [&n](double clean, const cpg::RobotConfig& c) {
+    return std::fabs(MeanAmplitude(c) - 0.5) < 1e-9 ? clean + (n++ % 2 ? 0.004 : -0.004) : clean;
+  };
+  robot_.schedule.emplace(100, [](FakeRobot& r) { r.world.slippery = true; });
+  std::int64_t windows_at_60 = -1, windows_at_130 = -1;
+  robot_.schedule.emplace(60, [&](FakeRobot&) { windows_at_60 = db_->Find(1)->noise_windows; });
+  // 130 s: in the relearning that followed the drop.
+  robot_.schedule.emplace(130, [&](FakeRobot&) { windows_at_130 = db_->Find(1)->noise_windows; });
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.relearns, 1);
+  EXPECT_EQ(windows_at_60, 0);
+  EXPECT_GE(windows_at_130, 10);  // the windows before the drop, the drop's own not counted
+  EXPECT_LE(windows_at_130, 17);
+  EXPECT_GT(db_->Find(1)->velocity_noise, 0.003);
 }
 
 TEST_F(LifeCycleTest, ATransformationRebuildsTheNetworkFromTheNewBody) {
@@ -638,7 +820,11 @@ TEST_F(LifeCycleTest, BadOptionsAreRefused) {
   for (auto change : std::vector<std::function<void(LifeOptions&)>>{
            [](LifeOptions& o) { o.window_periods = 0; }, [](LifeOptions& o) { o.trial_periods = -1; },
            [](LifeOptions& o) { o.orientation_cos = 1; }, [](LifeOptions& o) { o.max_recall = -1; },
-           [](LifeOptions& o) { o.adaptation.max_free = 0; }, [](LifeOptions& o) { o.anomaly.threshold = 0; }}) {
+           [](LifeOptions& o) { o.adaptation.max_free = 0; }, [](LifeOptions& o) { o.anomaly.threshold = 0; },
+           [](LifeOptions& o) { o.recall_noise_factor = -1; }, [](LifeOptions& o) { o.recall_floor = 1.5; },
+           [](LifeOptions& o) { o.recall_max_windows = 0; }, [](LifeOptions& o) { o.recall_fail_factor = -0.1; },
+           [](LifeOptions& o) { o.noise_write_windows = -1; },
+           [](LifeOptions& o) { o.recall_noise_factor = std::nan(""); }}) {
     LifeOptions o;
     change(o);
     EXPECT_THROW(LifeCycle(robot_, relearner_, *db_, log_, o), Error);
