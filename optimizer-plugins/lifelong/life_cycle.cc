@@ -100,6 +100,10 @@ LifeCycle::LifeCycle(RobotPort& port, Relearner& relearner, GaitDatabase& db, Li
   non_negative(options_.recall_accept, "recall acceptance");
   non_negative(options_.recall_noise_factor, "recall noise factor");
   non_negative(options_.recall_fail_factor, "recall fail factor");
+  if (!(options_.recall_restart_floor >= 0 && options_.recall_restart_floor <= 1)) {
+    throw Error(StatusCode::kInvalidArgument,
+                "recall restart floor " + FormatRounded(options_.recall_restart_floor) + " is outside [0, 1]");
+  }
   if (!(options_.recall_floor >= 0 && options_.recall_floor <= 1)) {
     throw Error(StatusCode::kInvalidArgument,
                 "recall floor " + FormatRounded(options_.recall_floor) + " is outside [0, 1]");
@@ -545,7 +549,8 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
     port_.Walk(r.gait.config_xml);
     port_.Settle(options_.settle_periods);
     // One window, or for a noisy gait whose first windows are inconclusive a
-    // few more (each one a trial): judged on the mean of the windows so far.
+    // few more (each one a trial), judged on the mean of the windows so far;
+    // a clean gait's low first window may get a second (JudgeTrial).
     double sum = 0, mean = 0;
     int n = 0;
     TrialVerdict verdict;
@@ -561,7 +566,7 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
         ++status_.trials;
         if (n > 1) status_.detail = "gait " + std::to_string(r.gait.id) + " window " + std::to_string(n);
       }
-      verdict = JudgeTrial(r.gait, mean, n);
+      verdict = JudgeTrial(r.gait, mean, w.velocity, n);
       const char* decision = verdict.accepted ? "accepted" : verdict.longer ? "longer" : "rejected";
       Row(w.end_time, w.velocity,
           "recall gait " + std::to_string(r.gait.id) + (n > 1 ? " window " + std::to_string(n) : "") + " " + decision);
@@ -572,6 +577,7 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
              {"velocity", JsonNumber(w.velocity)},
              {"window", JsonInt(n)},
              {"mean", JsonNumber(mean)},
+             {"judged", JsonNumber(verdict.velocity)},
              {"expected", JsonNumber(r.gait.expected_velocity)},
              {"noise", JsonNumber(r.gait.velocity_noise)},
              {"accept_level", JsonNumber(verdict.accept_level)},
@@ -581,7 +587,8 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
       if (!verdict.longer) break;
     }
     const bool accepted = verdict.accepted;
-    db_.RecordUse(r.gait.id, UnixNow(), mean, current_.id, accepted ? UseOutcome::kAccepted : UseOutcome::kRejected);
+    const double judged = verdict.velocity;
+    db_.RecordUse(r.gait.id, UnixNow(), judged, current_.id, accepted ? UseOutcome::kAccepted : UseOutcome::kRejected);
     if (accepted) {
       const std::int64_t previous = current_.id;
       current_ = Gait{.id = r.gait.id,
@@ -589,8 +596,8 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
                       .problem_xml = r.gait.problem_xml,
                       .key = key,
                       .orientation = orientation,
-                      .expected = mean};
-      monitor_.Seed(mean);
+                      .expected = judged};
+      monitor_.Seed(judged);
       NewGait();
       {
         std::lock_guard lock(mu_);
@@ -599,7 +606,7 @@ bool LifeCycle::Recall(const Anomaly& anomaly, const std::string& key, Orientati
       Event(last_robot_time_, "recalled",
             {{"gait", JsonInt(current_.id)},
              {"previous", JsonInt(previous)},
-             {"velocity", JsonNumber(mean)},
+             {"velocity", JsonNumber(judged)},
              {"windows", JsonInt(n)}});
       return true;
     }
@@ -749,7 +756,7 @@ void LifeCycle::Relearn(const Anomaly& anomaly, const cpg::ModuleGraph& graph, c
   first_window_ = FirstWindow::kUpdateExpected;
 }
 
-LifeCycle::TrialVerdict LifeCycle::JudgeTrial(const GaitRecord& gait, double mean, int n) const {
+LifeCycle::TrialVerdict LifeCycle::JudgeTrial(const GaitRecord& gait, double mean, double last, int n) const {
   TrialVerdict v;
   const double expected = gait.expected_velocity;
   if (!(expected > 0)) {
@@ -758,6 +765,7 @@ LifeCycle::TrialVerdict LifeCycle::JudgeTrial(const GaitRecord& gait, double mea
     v.accept_level = std::max(0.0, options_.recall_accept * expected);
     v.fail_level = v.accept_level;
     v.accepted = mean > 0 && mean >= options_.recall_accept * expected;
+    v.velocity = mean;
     return v;
   }
   const double noise = std::max(0.0, gait.velocity_noise);
@@ -768,11 +776,21 @@ LifeCycle::TrialVerdict LifeCycle::JudgeTrial(const GaitRecord& gait, double mea
                                    (1 - options_.recall_floor) * expected);
   v.accept_level = expected - std::max(plain, by_noise);
   v.fail_level = expected - options_.recall_fail_factor * noise / root_n;
-  v.accepted = mean > 0 && mean >= v.accept_level;
-  // A gait is noisy when its noise, not the plain fraction, sets the band;
-  // a clean gait keeps the one-window rule.
+  // A gait is noisy when its noise, not the plain fraction, sets the band.
   const bool noisy = options_.recall_noise_factor * noise > plain;
-  v.longer = !v.accepted && noisy && mean > 0 && mean >= v.fail_level && n < options_.recall_max_windows;
+  if (noisy) {
+    v.velocity = mean;
+    v.accepted = mean > 0 && mean >= v.accept_level;
+    v.longer = !v.accepted && mean > 0 && mean >= v.fail_level && n < options_.recall_max_windows;
+    return v;
+  }
+  // A clean gait is judged on one window; a first window that may have held
+  // the start-up from a near standstill gets a second, judged alone.
+  v.velocity = last;
+  v.fail_level = options_.recall_restart_floor * expected;
+  v.accepted = last > 0 && last >= v.accept_level;
+  v.longer = !v.accepted && n == 1 && options_.recall_restart_floor > 0 && last > 0 && last >= v.fail_level &&
+             options_.recall_max_windows >= 2;
   return v;
 }
 

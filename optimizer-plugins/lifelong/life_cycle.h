@@ -60,6 +60,12 @@ struct LifeOptions {
   /// window that low is beyond the gait's noise; the anomaly rule's band is
   /// 3·d as well), so a gait that does not walk any more is rejected at once.
   double recall_fail_factor = 3;
+  /// A gait switched to from a robot that has nearly stopped walks slowly
+  /// for a period or two. A clean gait's first trial window below the
+  /// acceptance but at or above this fraction of E gets one more window,
+  /// judged alone (the first held the start-up); below it, or a second
+  /// window that is low too, is rejected. 0 turns the second window off.
+  double recall_restart_floor = 0.4;
   /// Walking windows between writes of the current gait's window noise to
   /// the database (besides the write when the gait is left); 0: only then.
   int noise_write_windows = 6;
@@ -172,8 +178,10 @@ class LifeCycle {
     bool longer = false;    // inconclusive: another window
     double accept_level = 0;
     double fail_level = 0;
+    double velocity = 0;    // what was judged: the mean (a noisy gait) or the last window
   };
-  TrialVerdict JudgeTrial(const GaitRecord& gait, double mean, int n) const;
+  // `last` is the n-th window's velocity.
+  TrialVerdict JudgeTrial(const GaitRecord& gait, double mean, double last, int n) const;
   // Handles the events that came in; returns the first physical change.
   std::optional<Anomaly> TakeEvents();
   void Note(const RobotEvent& event);

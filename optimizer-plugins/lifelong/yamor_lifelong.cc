@@ -174,6 +174,10 @@ int main(int argc, char** argv) {
   app.add_option("--recall-windows", life.recall_max_windows,
                  "Windows (trials) an inconclusive recall trial of a noisy gait may grow to (1: one window)")
       ->capture_default_str();
+  app.add_option("--recall-restart-floor", life.recall_restart_floor,
+                 "A clean gait's first recall window below the acceptance but at or above this fraction of its "
+                 "expected velocity gets a second window, judged alone (start-up from a near standstill; 0: off)")
+      ->capture_default_str();
   app.add_option("--recall-fail-factor", life.recall_fail_factor,
                  "A recall trial below the expected velocity minus this many times the gait's noise / sqrt(n) "
                  "is rejected at once")

@@ -443,7 +443,10 @@ TEST_F(LifeCycleTest, AnErraticGaitWhoseTrialLandsLowWithinItsNoiseIsRecalled) {
 }
 
 TEST_F(LifeCycleTest, ThePlainRuleRejectsTheSameTrialAndRelearns) {
-  tweak_ = [](LifeOptions& o) { o.recall_noise_factor = 0; };
+  tweak_ = [](LifeOptions& o) {
+    o.recall_noise_factor = 0;
+    o.recall_restart_floor = 0;
+  };
   StoreErraticGait(0.008, {0.021});
   const LifeSummary s = Live(200);
   EXPECT_EQ(s.status.recalls, 0);
@@ -452,9 +455,10 @@ TEST_F(LifeCycleTest, ThePlainRuleRejectsTheSameTrialAndRelearns) {
   EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
 }
 
-TEST_F(LifeCycleTest, ACleanGaitKeepsTheOneWindowRule) {
+TEST_F(LifeCycleTest, ACleanGaitKeepsTheOneWindowRuleWithoutTheRestartWindow) {
   // Window noise 0.1 cm/s: 2·d is less than the plain 20 %, so the plain
   // rule judges, in one window.
+  tweak_ = [](LifeOptions& o) { o.recall_restart_floor = 0; };
   StoreErraticGait(0.001, {0.023, 0.03, 0.03});
   const LifeSummary s = Live(200);
   EXPECT_EQ(s.status.recalls, 0);
@@ -462,6 +466,43 @@ TEST_F(LifeCycleTest, ACleanGaitKeepsTheOneWindowRule) {
   ASSERT_EQ(Trials().size(), 1u);
   EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
   EXPECT_NEAR(std::stod(MemoryLog::Field(*Trials()[0], "accept_level")), 0.024, 1e-12);
+}
+
+// The start-up from a near standstill (seed 5 of the recall benchmark: a
+// clean 3.3 cm/s gait's first window 1.6, then 3.35): a clean gait's low
+// first window gets a second, judged alone.
+TEST_F(LifeCycleTest, ACleanGaitsLowFirstWindowGetsASecondJudgedAlone) {
+  const std::int64_t b = StoreErraticGait(0.001, {0.016, 0.0295});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 1);
+  EXPECT_EQ(s.status.relearns, 0);
+  EXPECT_EQ(s.status.trials, 2);
+  ASSERT_EQ(Trials().size(), 2u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("longer"));
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*Trials()[0], "fail_level")), 0.012, 1e-12);  // 0.4 · 3
+  EXPECT_EQ(MemoryLog::Field(*Trials()[1], "decision"), JsonString("accepted"));
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*Trials()[1], "judged")), 0.0295, 1e-12);  // alone, not the mean
+  ASSERT_EQ(log_.Of("recalled").size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*log_.Of("recalled")[0], "gait"), std::to_string(b));
+  EXPECT_NEAR(std::stod(MemoryLog::Field(*log_.Of("recalled")[0], "velocity")), 0.0295, 1e-12);
+}
+
+TEST_F(LifeCycleTest, ACleanGaitLowInBothWindowsIsRejectedAfterTwo) {
+  StoreErraticGait(0.001, {0.016, 0.02, 0.03});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 0);
+  EXPECT_EQ(s.status.relearns, 1);
+  ASSERT_EQ(Trials().size(), 2u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("longer"));
+  EXPECT_EQ(MemoryLog::Field(*Trials()[1], "decision"), JsonString("rejected"));
+}
+
+TEST_F(LifeCycleTest, ACleanGaitsFirstWindowBelowTheRestartFloorIsRejectedAtOnce) {
+  StoreErraticGait(0.001, {0.011, 0.03});
+  const LifeSummary s = Live(200);
+  EXPECT_EQ(s.status.recalls, 0);
+  ASSERT_EQ(Trials().size(), 1u);
+  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
 }
 
 TEST_F(LifeCycleTest, AnInconclusiveTrialOfANoisyGaitGetsMoreWindowsEachATrial) {
@@ -823,7 +864,7 @@ TEST_F(LifeCycleTest, BadOptionsAreRefused) {
            [](LifeOptions& o) { o.adaptation.max_free = 0; }, [](LifeOptions& o) { o.anomaly.threshold = 0; },
            [](LifeOptions& o) { o.recall_noise_factor = -1; }, [](LifeOptions& o) { o.recall_floor = 1.5; },
            [](LifeOptions& o) { o.recall_max_windows = 0; }, [](LifeOptions& o) { o.recall_fail_factor = -0.1; },
-           [](LifeOptions& o) { o.noise_write_windows = -1; },
+           [](LifeOptions& o) { o.noise_write_windows = -1; }, [](LifeOptions& o) { o.recall_restart_floor = 1.2; },
            [](LifeOptions& o) { o.recall_noise_factor = std::nan(""); }}) {
     LifeOptions o;
     change(o);
