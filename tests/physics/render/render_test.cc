@@ -417,6 +417,85 @@ TEST_P(RenderTest, OverlappingShadowsDarkenTheGroundOnce) {
   }
 }
 
+// Box edges (drawn by the faces' fragment shader since docs/benchmarks.md's
+// third round, formerly GL lines): every edge that can show is drawn along
+// its whole length in the darker edge colour, about one pixel wide, and the
+// faces keep their own colour inside. Fails when edges vanish, break up or
+// grow into bands.
+TEST_P(RenderTest, EveryVisibleBoxEdgeIsDrawnAboutOnePixelWide) {
+  Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.08));
+  scene.shape.resize(1);  // the body cube alone: no other box hides an edge
+  scene.modules[0].body.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(0.2, 0.4, 1).normalized()));
+  const Camera camera = FixedCamera();
+  RenderOptions options = Flat();
+  options.edges = true;
+  const int width = 640;
+  const int height = 480;
+  const Image image = renderer_->Render(scene, camera, width, height, options);
+  const Image plain = renderer_->Render(scene, camera, width, height, Flat());
+  const View view = ComputeView(camera, scene, width, height);
+  const Color face = ModuleColor(kModuleId);
+  const Color edge = {face[0] * 0.45f, face[1] * 0.45f, face[2] * 0.45f};
+
+  int edge_pixels = 0;
+  int plain_edge_pixels = 0;
+  Centroid(image, edge, edge_pixels);
+  Centroid(plain, edge, plain_edge_pixels);
+  EXPECT_EQ(plain_edge_pixels, 0) << "no edge colour without edges";
+  // The centre of the body shows the face colour, not an edge.
+  const Eigen::Vector2d centre = *Project(view, scene.modules[0].body.position);
+  const auto cp = image.At(static_cast<int>(centre.x()), static_cast<int>(centre.y()));
+  EXPECT_TRUE(Near(cp, face)) << Describe(cp);
+
+  // The cube's corners and which of its faces turn towards the eye.
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = scene.modules[0].body.orientation.toRotationMatrix();
+  pose.translation() = scene.modules[0].body.position;
+  auto corner = [&](int i) {
+    return Eigen::Vector3d(pose * Eigen::Vector3d((i & 1) ? 0.05 : -0.05, (i & 2) ? 0.05 : -0.05,
+                                                  (i & 4) ? 0.05 : -0.05));
+  };
+  auto facing = [&](int axis, int side) {
+    const Eigen::Vector3d n = pose.linear().col(axis) * (side ? 1.0 : -1.0);
+    return n.dot(view.eye - (pose.translation() + 0.05 * n)) > 0.0;
+  };
+  auto is_edge = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < width && y < height && Near(image.At(x, y), edge);
+  };
+  double visible_length = 0.0;
+  int visible_edges = 0;
+  for (int i = 0; i < 8; ++i) {
+    for (int axis = 0; axis < 3; ++axis) {
+      if ((i >> axis) & 1) continue;
+      const int a = (axis + 1) % 3;
+      const int b = (axis + 2) % 3;
+      if (!facing(a, (i >> a) & 1) && !facing(b, (i >> b) & 1)) continue;  // hidden
+      ++visible_edges;
+      const Eigen::Vector2d p = *Project(view, corner(i));
+      const Eigen::Vector2d q = *Project(view, corner(i | (1 << axis)));
+      visible_length += (q - p).norm();
+      // Points along the edge, away from its corners: an edge pixel within a pixel.
+      for (double t = 0.1; t < 0.95; t += 0.1) {
+        const Eigen::Vector2d s = p + t * (q - p);
+        const int x = static_cast<int>(std::floor(s.x()));
+        const int y = static_cast<int>(std::floor(s.y()));
+        bool found = false;
+        for (int dy = -1; dy <= 1 && !found; ++dy) {
+          for (int dx = -1; dx <= 1 && !found; ++dx) found = is_edge(x + dx, y + dy);
+        }
+        EXPECT_TRUE(found) << "no edge pixel near " << s.transpose() << " on the edge from corner "
+                           << i << " along axis " << axis;
+      }
+    }
+  }
+  EXPECT_EQ(visible_edges, 9);  // a cube seen obliquely: three faces, nine edges
+  // About one pixel wide: as many edge pixels as the edges are long, give or
+  // take the corners and the stair steps of slanted lines.
+  EXPECT_GT(edge_pixels, 0.8 * visible_length) << "visible length " << visible_length;
+  EXPECT_LT(edge_pixels, 1.6 * visible_length) << "visible length " << visible_length;
+}
+
 TEST_P(RenderTest, SeveralThreadsRenderInParallelWithTheirOwnContexts) {
   const Camera camera;
   std::vector<Scene> scenes;
