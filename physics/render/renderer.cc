@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -94,10 +95,24 @@ class Batch {
             const Eigen::Vector3d& d, const std::array<GLubyte, 4>& rgba) {
     for (const Eigen::Vector3d* p : {&a, &b, &c, &a, &c, &d}) Add(*p, rgba);
   }
-  void Clear() { vertices_.clear(); }
+  // A convex polygon (corners in order, at least 3) as a fan of indexed
+  // triangles: each corner is shaded once, not once per triangle
+  // (llvmpipe's vertex processing costs a few hundred instructions a vertex).
+  void Fan(std::span<const Eigen::Vector3d> corners, const std::array<GLubyte, 4>& rgba) {
+    const auto first = static_cast<GLuint>(vertices_.size());
+    for (const Eigen::Vector3d& p : corners) Add(p, rgba);
+    for (GLuint i = 1; i + 1 < corners.size(); ++i) {
+      indices_.insert(indices_.end(), {first, first + i, first + i + 1});
+    }
+  }
+  void Clear() {
+    vertices_.clear();
+    indices_.clear();
+  }
 
-  // Draws the batch as `mode` primitives; with `colors` false every vertex
-  // takes the current colour (glColor) instead of its own.
+  // Draws the batch as `mode` primitives (indexed when built by Fan); with
+  // `colors` false every vertex takes the current colour (glColor) instead
+  // of its own.
   void Draw(const GlFunctions& gl, GLenum mode, bool colors = true) const {
     if (vertices_.empty()) return;
     gl.VertexPointer(3, GL_FLOAT, sizeof(Vertex), vertices_.data()->xyz);
@@ -107,11 +122,17 @@ class Batch {
     } else {
       gl.DisableClientState(GL_COLOR_ARRAY);
     }
-    gl.DrawArrays(mode, 0, static_cast<GLsizei>(vertices_.size()));
+    if (indices_.empty()) {
+      gl.DrawArrays(mode, 0, static_cast<GLsizei>(vertices_.size()));
+    } else {
+      gl.DrawElements(mode, static_cast<GLsizei>(indices_.size()), GL_UNSIGNED_INT,
+                      indices_.data());
+    }
   }
 
  private:
   std::vector<Vertex> vertices_;
+  std::vector<GLuint> indices_;
 };
 
 std::array<GLubyte, 4> Rgba(const Color& c) {
@@ -306,6 +327,9 @@ class FaceBatch {
     }
     const auto edge_rgba = Rgba(edge);
     for (int f = 0; f < 6; ++f) {
+      // A face turned away from the eye would only be culled by OpenGL after
+      // its vertices were shaded: it is not sent at all.
+      if (!facing[f]) continue;
       const auto& face = kFaces[f];
       std::array<GLubyte, 4> half_width{};
       std::array<float, 4> side{};  // side k from face[k] to face[k + 1]
@@ -336,7 +360,11 @@ class FaceBatch {
         std::memcpy(v.half_width, half_width.data(), 4);
         vertices_.push_back(v);
       };
-      for (int j : {0, 1, 2, 0, 2, 3}) add(j);
+      // Two indexed triangles: each corner shaded once.
+      const auto first = static_cast<GLuint>(vertices_.size());
+      for (int j = 0; j < 4; ++j) add(j);
+      indices_.insert(indices_.end(),
+                      {first, first + 1, first + 2, first, first + 2, first + 3});
     }
   }
 
@@ -357,7 +385,8 @@ class FaceBatch {
     for (GLuint a : {kEdgeColorAttribute, kEdgeDistanceAttribute, kEdgeWidthAttribute}) {
       gl.EnableVertexAttribArray(a);
     }
-    gl.DrawArrays(GL_TRIANGLES, 0, static_cast<GLsizei>(vertices_.size()));
+    gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(indices_.size()), GL_UNSIGNED_INT,
+                    indices_.data());
     for (GLuint a : {kEdgeColorAttribute, kEdgeDistanceAttribute, kEdgeWidthAttribute}) {
       gl.DisableVertexAttribArray(a);
     }
@@ -366,6 +395,7 @@ class FaceBatch {
 
  private:
   std::vector<FaceVertex> vertices_;
+  std::vector<GLuint> indices_;
 };
 
 // Adds the box's shadow on the plane z = 0, cast along `light` (towards the
@@ -400,12 +430,11 @@ void AddBoxShadow(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vect
     hull[n++] = points[i];
   }
   --n;  // the last point repeats the first
-  const std::array<GLubyte, 4> none = {0, 0, 0, 0};  // drawn with glColor
-  for (int i = 1; i + 1 < n; ++i) {
-    batch.Add(Eigen::Vector3d(hull[0].x(), hull[0].y(), 0.0), none);
-    batch.Add(Eigen::Vector3d(hull[i].x(), hull[i].y(), 0.0), none);
-    batch.Add(Eigen::Vector3d(hull[i + 1].x(), hull[i + 1].y(), 0.0), none);
-  }
+  if (n < 3) return;  // a box seen edge-on by the light casts no area
+  std::array<Eigen::Vector3d, 16> polygon;
+  for (int i = 0; i < n; ++i) polygon[i] = Eigen::Vector3d(hull[i].x(), hull[i].y(), 0.0);
+  batch.Fan(std::span<const Eigen::Vector3d>(polygon.data(), static_cast<std::size_t>(n)),
+            {0, 0, 0, 0});  // drawn with glColor
 }
 
 // ---- 2-D overlay, drawn straight into the image (pixel coordinates, y down) ----
