@@ -500,6 +500,36 @@ double GridRadius(const View& view, double spacing) {
   return d2 > h * h ? std::sqrt(d2 - h * h) : 0.0;
 }
 
+// True when the ground square (half-width kGroundExtent around (cx, cy), z
+// = 0) covers the whole view: then the frame is cleared to the ground colour
+// instead of to the sky's with the ground drawn over it, the same pixels
+// without a full-frame polygon (llvmpipe shades every 4x4 block of a
+// polygon, and the ground quad was a quarter of a frame's cost). The pixels
+// whose rays meet the square form a convex region of the image (the
+// projection of a convex polygon in front of the eye), so the view is
+// covered when the rays through its four corners meet the square, between
+// the near and far planes, with a metre to spare.
+bool GroundFillsView(const View& view, double cx, double cy) {
+  const Eigen::Matrix4d inverse = (view.projection * view.view).inverse();
+  for (const double nx : {-1.0, 1.0}) {
+    for (const double ny : {-1.0, 1.0}) {
+      const Eigen::Vector4d a = inverse * Eigen::Vector4d(nx, ny, -1.0, 1.0);
+      const Eigen::Vector4d b = inverse * Eigen::Vector4d(nx, ny, 1.0, 1.0);
+      if (!(a.w() != 0.0 && b.w() != 0.0)) return false;
+      const Eigen::Vector3d near = a.head<3>() / a.w();
+      const Eigen::Vector3d far = b.head<3>() / b.w();
+      if (!((near.z() > 0.0 && far.z() < 0.0) || (near.z() < 0.0 && far.z() > 0.0))) return false;
+      const double t = near.z() / (near.z() - far.z());
+      const Eigen::Vector3d hit = near + t * (far - near);
+      const double margin = kGroundExtent - 1.0;
+      if (!hit.allFinite() || std::abs(hit.x() - cx) > margin || std::abs(hit.y() - cy) > margin) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
 Color BodyColor(const SceneModule& m) {
   const Color base = ModuleColor(m.id);
   return m.defective ? Mix(base, Color{0.35f, 0.35f, 0.35f}, 0.6f) : base;
@@ -598,8 +628,19 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   const GlFunctions& gl = context_->gl();
   const Eigen::Vector3d light = LightDirection(scene);
 
+  // The ground square's centre: the view's target on the 10 cm grid.
+  const double cx = std::round(view.target.x() / kFineGridSpacing) * kFineGridSpacing;
+  const double cy = std::round(view.target.y() / kFineGridSpacing) * kFineGridSpacing;
+  const bool ground_fills_view = GroundFillsView(view, cx, cy);
+  const std::array<GLubyte, 4> ground_rgba = Rgba(kGroundColor);
+
   gl.Viewport(0, 0, width, height);
-  gl.ClearColor(kSkyColor[0], kSkyColor[1], kSkyColor[2], 1.0f);
+  if (ground_fills_view) {
+    // The same 8-bit colour as the ground polygon's.
+    gl.ClearColor(ground_rgba[0] / 255.0f, ground_rgba[1] / 255.0f, ground_rgba[2] / 255.0f, 1.0f);
+  } else {
+    gl.ClearColor(kSkyColor[0], kSkyColor[1], kSkyColor[2], 1.0f);
+  }
   gl.ClearDepth(1.0);
   gl.ClearStencil(0);
   gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
@@ -618,13 +659,13 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   Batch batch;
   gl.Disable(GL_DEPTH_TEST);
   gl.DepthMask(GL_FALSE);
-  const double cx = std::round(view.target.x() / kFineGridSpacing) * kFineGridSpacing;
-  const double cy = std::round(view.target.y() / kFineGridSpacing) * kFineGridSpacing;
-  batch.Quad(Eigen::Vector3d(cx - kGroundExtent, cy - kGroundExtent, 0.0),
-             Eigen::Vector3d(cx + kGroundExtent, cy - kGroundExtent, 0.0),
-             Eigen::Vector3d(cx + kGroundExtent, cy + kGroundExtent, 0.0),
-             Eigen::Vector3d(cx - kGroundExtent, cy + kGroundExtent, 0.0), Rgba(kGroundColor));
-  batch.Draw(gl, GL_TRIANGLES);
+  if (!ground_fills_view) {
+    batch.Quad(Eigen::Vector3d(cx - kGroundExtent, cy - kGroundExtent, 0.0),
+               Eigen::Vector3d(cx + kGroundExtent, cy - kGroundExtent, 0.0),
+               Eigen::Vector3d(cx + kGroundExtent, cy + kGroundExtent, 0.0),
+               Eigen::Vector3d(cx - kGroundExtent, cy + kGroundExtent, 0.0), ground_rgba);
+    batch.Draw(gl, GL_TRIANGLES);
+  }
   if (options.grid) {
     batch.Clear();
     gl.LineWidth(1.0f);

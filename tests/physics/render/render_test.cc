@@ -128,6 +128,59 @@ TEST_P(RenderTest, ModuleColourAtItsProjectedCentreAndGroundElsewhere) {
   for (int i = 3; i < static_cast<int>(image.rgba.size()); i += 4) ASSERT_EQ(image.rgba[i], 255);
 }
 
+// Sky exactly where a pixel's ray misses the ground square (150 m around the
+// view's target) and ground where it meets it, for views from straight down
+// to level and from below the ground: the renderer clears the frame to the
+// ground colour instead of drawing the ground when the ground fills the
+// view, and must not do so when any sky shows.
+TEST_P(RenderTest, SkyExactlyWhereRaysMissTheGround) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const int w = 160;
+  const int h = 120;
+  int views_with_sky = 0;
+  int views_without_sky = 0;
+  for (const double elevation : {1.5, 1.0, 0.6, 0.45, 0.3, 0.2, 0.12, 0.08, 0.04, 0.0, -0.3}) {
+    for (const double distance : {0.8, 4.0, 60.0}) {
+      SCOPED_TRACE(fmt::format("elevation {}, distance {}", elevation, distance));
+      Camera camera;
+      camera.elevation = elevation;
+      camera.distance = distance;
+      const Image image = renderer_->Render(scene, camera, w, h, Flat());
+      const View view = ComputeView(camera, scene, w, h);
+      const Eigen::Matrix4d inverse = (view.projection * view.view).inverse();
+      const double cx = std::round(view.target.x() * 10.0) / 10.0;
+      const double cy = std::round(view.target.y() * 10.0) / 10.0;
+      int sky = 0;
+      int wrong = 0;
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const auto p = image.At(x, y);
+          if (Near(p, ModuleColor(kModuleId))) continue;
+          const double nx = 2.0 * (x + 0.5) / w - 1.0;
+          const double ny = 1.0 - 2.0 * (y + 0.5) / h;
+          const Eigen::Vector4d a = inverse * Eigen::Vector4d(nx, ny, -1.0, 1.0);
+          const Eigen::Vector4d b = inverse * Eigen::Vector4d(nx, ny, 1.0, 1.0);
+          const Eigen::Vector3d near = a.head<3>() / a.w();
+          const Eigen::Vector3d far = b.head<3>() / b.w();
+          bool ground = (near.z() > 0.0) != (far.z() > 0.0);
+          if (ground) {
+            const Eigen::Vector3d hit = near + near.z() / (near.z() - far.z()) * (far - near);
+            ground = std::abs(hit.x() - cx) <= 150.0 && std::abs(hit.y() - cy) <= 150.0;
+          }
+          if (!ground) ++sky;
+          if (!Near(p, ground ? kGroundColor : kSkyColor)) ++wrong;
+        }
+      }
+      // Only pixels on the horizon's line may fall either way.
+      EXPECT_LE(wrong, w) << sky << " sky pixels expected";
+      (sky > 0 ? views_with_sky : views_without_sky) += 1;
+    }
+  }
+  // Both kinds of view were tried.
+  EXPECT_GT(views_with_sky, 5);
+  EXPECT_GT(views_without_sky, 5);
+}
+
 TEST_P(RenderTest, TopCameraLooksStraightDownWithYUp) {
   const Scene scene = OneModule(Eigen::Vector3d(0.3, 0.2, 0.05));
   Camera camera;
