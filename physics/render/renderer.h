@@ -13,10 +13,12 @@
 // Cheap enough to film every evaluation (docs/benchmarks.md, "Rendering"):
 // the scene goes to OpenGL as five vertex-array batches (ground, grid,
 // shadows, faces, LED) with no GL lighting (faces are flat, so each face's
-// soft lighting is computed here), the box edges are drawn by the faces'
-// fragment shader rather than as lines, each box's shadow is one convex
-// polygon, back faces are skipped, the ids and the legend are written
-// straight into the image, and OSMesa draws into the image's own pixels.
+// soft lighting is computed here), a view the ground fills is cleared to the
+// ground colour instead of drawing the ground, the box edges are drawn by
+// the faces' fragment shader rather than as lines, each box's shadow is one
+// convex polygon, back faces are skipped, the ids and the legend are
+// written straight into the image, and OSMesa draws into the image's own
+// pixels.
 #pragma once
 
 #include <memory>
