@@ -63,9 +63,9 @@ inline uint32_t Word(const uint8_t* p) {
 }
 
 // On x86-64, the loops below are also compiled for AVX2 and the better one is
-// chosen when the program loads: with SSE2 alone the compiler emulates the
-// 32-bit multiplies, and the conversion cost 0.26-0.31 ms a 320x240 frame
-// against 0.06-0.09 ms with AVX2 (docs/benchmarks.md, "Rendering", third
+// chosen when the program loads: SSE2 has no 32-bit vector multiply (the
+// compiler builds each product from 16-bit ones), and the conversion cost
+// 0.26-0.31 ms a 320x240 frame against 0.06-0.09 ms with AVX2 (docs/benchmarks.md, "Rendering", third
 // round). Integer arithmetic: both give the same bytes.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #define YAMOR_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
