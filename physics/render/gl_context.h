@@ -19,8 +19,9 @@
 
 namespace yamor::render::internal {
 
-/// The GL functions the renderer uses (fixed-function OpenGL 1.x plus
-/// framebuffer objects for EGL), resolved from the backend's library.
+/// The GL functions the renderer uses (fixed-function OpenGL 1.x, framebuffer
+/// objects for EGL, GLSL programs for the faces' edges), resolved from the
+/// backend's library.
 struct GlFunctions {
 #define YAMOR_GL_FUNCTION(name) decltype(&::gl##name) name = nullptr;
 #define YAMOR_GL_EXTENSION(name, type) type name = nullptr;

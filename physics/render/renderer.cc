@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -79,7 +80,7 @@ struct Vertex {
 static_assert(sizeof(Vertex) == 16);
 
 // Vertices drawn by one glDrawArrays: the scene goes to Mesa as a handful of
-// batches (ground, grid, shadows, faces, edges, LED) instead of one
+// batches (ground, grid, shadows, faces, LED) instead of one
 // glBegin/glEnd per box, so Mesa's per-primitive state and vertex handling
 // runs a few times a frame rather than hundreds.
 class Batch {
@@ -94,10 +95,24 @@ class Batch {
             const Eigen::Vector3d& d, const std::array<GLubyte, 4>& rgba) {
     for (const Eigen::Vector3d* p : {&a, &b, &c, &a, &c, &d}) Add(*p, rgba);
   }
-  void Clear() { vertices_.clear(); }
+  // A convex polygon (corners in order, at least 3) as a fan of indexed
+  // triangles: each corner is shaded once, not once per triangle
+  // (llvmpipe's vertex processing costs a few hundred instructions a vertex).
+  void Fan(std::span<const Eigen::Vector3d> corners, const std::array<GLubyte, 4>& rgba) {
+    const auto first = static_cast<GLuint>(vertices_.size());
+    for (const Eigen::Vector3d& p : corners) Add(p, rgba);
+    for (GLuint i = 1; i + 1 < corners.size(); ++i) {
+      indices_.insert(indices_.end(), {first, first + i, first + i + 1});
+    }
+  }
+  void Clear() {
+    vertices_.clear();
+    indices_.clear();
+  }
 
-  // Draws the batch as `mode` primitives; with `colors` false every vertex
-  // takes the current colour (glColor) instead of its own.
+  // Draws the batch as `mode` primitives (indexed when built by Fan); with
+  // `colors` false every vertex takes the current colour (glColor) instead
+  // of its own.
   void Draw(const GlFunctions& gl, GLenum mode, bool colors = true) const {
     if (vertices_.empty()) return;
     gl.VertexPointer(3, GL_FLOAT, sizeof(Vertex), vertices_.data()->xyz);
@@ -107,11 +122,17 @@ class Batch {
     } else {
       gl.DisableClientState(GL_COLOR_ARRAY);
     }
-    gl.DrawArrays(mode, 0, static_cast<GLsizei>(vertices_.size()));
+    if (indices_.empty()) {
+      gl.DrawArrays(mode, 0, static_cast<GLsizei>(vertices_.size()));
+    } else {
+      gl.DrawElements(mode, static_cast<GLsizei>(indices_.size()), GL_UNSIGNED_INT,
+                      indices_.data());
+    }
   }
 
  private:
   std::vector<Vertex> vertices_;
+  std::vector<GLuint> indices_;
 };
 
 std::array<GLubyte, 4> Rgba(const Color& c) {
@@ -181,34 +202,201 @@ void AddBox(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& 
   }
 }
 
-// Adds those of a box's twelve edges that can show from `eye`: an edge
-// between two faces turned away from the eye lies behind the box itself (a
-// closed convex solid) and would only fail the depth test.
-void AddBoxEdges(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
-                 const Eigen::Vector3d& size, const Color& color, const Eigen::Vector3d& eye) {
-  const auto corners = Corners(pose, center, size);
-  std::array<bool, 6> facing{};
-  for (int f = 0; f < 6; ++f) {
-    const Eigen::Vector3d n = pose.linear().col(f / 2) * ((f % 2 == 0) ? -1.0 : 1.0);
-    facing[f] = n.dot(eye - corners[kFaces[f][0]]) > 0.0;
+// ---- faces with their edges, drawn by one GLSL program ---------------------------
+//
+// llvmpipe's cost is per primitive (a few thousand instructions for each line
+// or triangle, whatever its size), and the ~300 GL_LINES of a frame's box
+// edges cost a sixth of it. So each face draws its own edges: every vertex
+// carries its distances to the face's four edges (affine on the face, so the
+// interpolated value is exact), and the fragment shader paints a pixel in the
+// edge colour when its distance to an edge, in pixels (the distance over the
+// length of its screen-space gradient), is below the edge's half-width: one
+// pixel for an edge on the box's outline (the face behind it is turned away),
+// half a pixel on each side of an edge between two visible faces. Either way
+// the edge is about one pixel wide, as a GL_LINE was, at any distance.
+
+// One vertex of a face: position, the face's colour, the edge colour, the
+// distances [m] to the face's four edges (0 on an edge, the side's length at
+// the opposite corners) and each edge's half-width in half pixels (0: none).
+struct FaceVertex {
+  GLfloat xyz[3];
+  GLubyte rgba[4];
+  GLubyte edge_rgba[4];
+  GLfloat distance[4];
+  GLubyte half_width[4];
+};
+static_assert(sizeof(FaceVertex) == 40);
+
+// Generic attribute locations of the face program (0 is gl_Vertex).
+constexpr GLuint kEdgeColorAttribute = 1;
+constexpr GLuint kEdgeDistanceAttribute = 2;
+constexpr GLuint kEdgeWidthAttribute = 3;
+
+// GLSL 1.30 (OpenGL 3.0) with the compatibility built-ins: llvmpipe offers
+// OpenGL 4.5 compatibility through OSMesa and EGL alike.
+constexpr const char* kFaceVertexShader = R"(#version 130
+in vec4 edge_color;
+in vec4 edge_distance;
+in vec4 edge_width;
+flat out vec4 face_rgba;
+flat out vec4 edge_rgba;
+flat out vec4 half_width;
+out vec4 distance;
+void main() {
+  gl_Position = gl_ModelViewProjectionMatrix * gl_Vertex;
+  face_rgba = gl_Color;
+  edge_rgba = edge_color;
+  half_width = edge_width;
+  distance = edge_distance;
+}
+)";
+
+// On an edge when distance / |gradient| < half_width / 2 pixels, compared
+// squared (no square root, no division by a zero gradient).
+constexpr const char* kFaceFragmentShader = R"(#version 130
+flat in vec4 face_rgba;
+flat in vec4 edge_rgba;
+flat in vec4 half_width;
+in vec4 distance;
+void main() {
+  vec4 gx = dFdx(distance);
+  vec4 gy = dFdy(distance);
+  bvec4 on = lessThan(4.0 * distance * distance, half_width * half_width * (gx * gx + gy * gy));
+  gl_FragColor = any(on) ? edge_rgba : face_rgba;
+}
+)";
+
+// Compiles and links the face program in the current context; throws
+// yamor::Error(INTERNAL) with the compiler's log when OpenGL refuses it.
+GLuint BuildFaceProgram(const GlFunctions& gl) {
+  auto compile = [&](GLenum type, const char* source, const char* what) {
+    const GLuint shader = gl.CreateShader(type);
+    gl.ShaderSource(shader, 1, &source, nullptr);
+    gl.CompileShader(shader);
+    GLint ok = GL_FALSE;
+    gl.GetShaderiv(shader, GL_COMPILE_STATUS, &ok);
+    if (ok != GL_TRUE) {
+      std::array<char, 2048> log{};
+      gl.GetShaderInfoLog(shader, static_cast<GLsizei>(log.size()), nullptr, log.data());
+      gl.DeleteShader(shader);
+      throw Error(StatusCode::kInternal,
+                  fmt::format("OpenGL refused the face {} shader: {}", what, log.data()));
+    }
+    return shader;
+  };
+  const GLuint vertex = compile(GL_VERTEX_SHADER, kFaceVertexShader, "vertex");
+  const GLuint fragment = compile(GL_FRAGMENT_SHADER, kFaceFragmentShader, "fragment");
+  const GLuint program = gl.CreateProgram();
+  gl.AttachShader(program, vertex);
+  gl.AttachShader(program, fragment);
+  gl.BindAttribLocation(program, kEdgeColorAttribute, "edge_color");
+  gl.BindAttribLocation(program, kEdgeDistanceAttribute, "edge_distance");
+  gl.BindAttribLocation(program, kEdgeWidthAttribute, "edge_width");
+  gl.LinkProgram(program);
+  gl.DeleteShader(vertex);  // freed with the program
+  gl.DeleteShader(fragment);
+  GLint ok = GL_FALSE;
+  gl.GetProgramiv(program, GL_LINK_STATUS, &ok);
+  if (ok != GL_TRUE) {
+    std::array<char, 2048> log{};
+    gl.GetProgramInfoLog(program, static_cast<GLsizei>(log.size()), nullptr, log.data());
+    throw Error(StatusCode::kInternal,
+                fmt::format("OpenGL refused to link the face program: {}", log.data()));
   }
-  const auto rgba = Rgba(color);
-  for (int i = 0; i < 8; ++i) {
-    for (int axis = 0; axis < 3; ++axis) {
-      const int bit = 1 << axis;
-      if ((i & bit) != 0) continue;
-      // The edge along `axis` from corner i borders one face of each other axis,
-      // on the side corner i is on.
-      const int a = (axis + 1) % 3;
-      const int b = (axis + 2) % 3;
-      const int face_a = 2 * a + ((i >> a) & 1);
-      const int face_b = 2 * b + ((i >> b) & 1);
-      if (!facing[face_a] && !facing[face_b]) continue;
-      batch.Add(corners[i], rgba);
-      batch.Add(corners[i | bit], rgba);
+  return program;
+}
+
+// Faces with edges, drawn as GL_TRIANGLES by the face program.
+class FaceBatch {
+ public:
+  // Adds a box's six faces, each shaded by `lighting`, with edges of colour
+  // `edge` where they can show from `eye`: an edge between two faces turned
+  // away from the eye lies behind the box (a closed convex solid), one
+  // between a visible face and a hidden one is on the outline (the visible
+  // face draws all of its width), one between two visible faces is shared
+  // (each draws half).
+  void AddBox(const Eigen::Isometry3d& pose, const Eigen::Vector3d& center,
+              const Eigen::Vector3d& size, const Color& color, const Color& edge,
+              const Lighting& lighting, const Eigen::Vector3d& eye) {
+    const auto corners = Corners(pose, center, size);
+    std::array<bool, 6> facing{};
+    std::array<Eigen::Vector3d, 6> normals;
+    for (int f = 0; f < 6; ++f) {
+      normals[f] = pose.linear().col(f / 2) * ((f % 2 == 0) ? -1.0 : 1.0);
+      facing[f] = normals[f].dot(eye - corners[kFaces[f][0]]) > 0.0;
+    }
+    const auto edge_rgba = Rgba(edge);
+    for (int f = 0; f < 6; ++f) {
+      // A face turned away from the eye would only be culled by OpenGL after
+      // its vertices were shaded: it is not sent at all.
+      if (!facing[f]) continue;
+      const auto& face = kFaces[f];
+      std::array<GLubyte, 4> half_width{};
+      std::array<float, 4> side{};  // side k from face[k] to face[k + 1]
+      for (int k = 0; k < 4; ++k) {
+        const int a = face[k];
+        const int b = face[(k + 1) % 4];
+        const int edge_axis = (a ^ b) == 1 ? 0 : (a ^ b) == 2 ? 1 : 2;
+        const int other_axis = 3 - f / 2 - edge_axis;
+        const int neighbour = 2 * other_axis + ((a >> other_axis) & 1);
+        half_width[k] = facing[neighbour] ? 1 : 2;
+        side[k] = static_cast<float>((corners[b] - corners[a]).norm());
+      }
+      const auto rgba = lighting.Shade(color, normals[f]);
+      // Corner j lies on sides j - 1 and j; its distance to side k is the
+      // length of the side next to k otherwise.
+      auto add = [&](int j) {
+        FaceVertex v{};
+        const Eigen::Vector3d& p = corners[face[j]];
+        v.xyz[0] = static_cast<GLfloat>(p.x());
+        v.xyz[1] = static_cast<GLfloat>(p.y());
+        v.xyz[2] = static_cast<GLfloat>(p.z());
+        std::memcpy(v.rgba, rgba.data(), 4);
+        std::memcpy(v.edge_rgba, edge_rgba.data(), 4);
+        for (int k = 0; k < 4; ++k) {
+          const bool on = j == k || j == (k + 1) % 4;
+          v.distance[k] = on ? 0.0f : side[(k + 1) % 4];
+        }
+        std::memcpy(v.half_width, half_width.data(), 4);
+        vertices_.push_back(v);
+      };
+      // Two indexed triangles: each corner shaded once.
+      const auto first = static_cast<GLuint>(vertices_.size());
+      for (int j = 0; j < 4; ++j) add(j);
+      indices_.insert(indices_.end(),
+                      {first, first + 1, first + 2, first, first + 2, first + 3});
     }
   }
-}
+
+  // Draws the faces with `program` (current state: depth test, culling).
+  void Draw(const GlFunctions& gl, GLuint program) const {
+    if (vertices_.empty()) return;
+    const FaceVertex* v = vertices_.data();
+    gl.UseProgram(program);
+    gl.VertexPointer(3, GL_FLOAT, sizeof(FaceVertex), v->xyz);
+    gl.EnableClientState(GL_COLOR_ARRAY);
+    gl.ColorPointer(4, GL_UNSIGNED_BYTE, sizeof(FaceVertex), v->rgba);
+    gl.VertexAttribPointer(kEdgeColorAttribute, 4, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(FaceVertex),
+                           v->edge_rgba);
+    gl.VertexAttribPointer(kEdgeDistanceAttribute, 4, GL_FLOAT, GL_FALSE, sizeof(FaceVertex),
+                           v->distance);
+    gl.VertexAttribPointer(kEdgeWidthAttribute, 4, GL_UNSIGNED_BYTE, GL_FALSE, sizeof(FaceVertex),
+                           v->half_width);
+    for (GLuint a : {kEdgeColorAttribute, kEdgeDistanceAttribute, kEdgeWidthAttribute}) {
+      gl.EnableVertexAttribArray(a);
+    }
+    gl.DrawElements(GL_TRIANGLES, static_cast<GLsizei>(indices_.size()), GL_UNSIGNED_INT,
+                    indices_.data());
+    for (GLuint a : {kEdgeColorAttribute, kEdgeDistanceAttribute, kEdgeWidthAttribute}) {
+      gl.DisableVertexAttribArray(a);
+    }
+    gl.UseProgram(0);
+  }
+
+ private:
+  std::vector<FaceVertex> vertices_;
+  std::vector<GLuint> indices_;
+};
 
 // Adds the box's shadow on the plane z = 0, cast along `light` (towards the
 // light): the convex hull of its corners projected onto the ground (a box is
@@ -242,12 +430,11 @@ void AddBoxShadow(Batch& batch, const Eigen::Isometry3d& pose, const Eigen::Vect
     hull[n++] = points[i];
   }
   --n;  // the last point repeats the first
-  const std::array<GLubyte, 4> none = {0, 0, 0, 0};  // drawn with glColor
-  for (int i = 1; i + 1 < n; ++i) {
-    batch.Add(Eigen::Vector3d(hull[0].x(), hull[0].y(), 0.0), none);
-    batch.Add(Eigen::Vector3d(hull[i].x(), hull[i].y(), 0.0), none);
-    batch.Add(Eigen::Vector3d(hull[i + 1].x(), hull[i + 1].y(), 0.0), none);
-  }
+  if (n < 3) return;  // a box seen edge-on by the light casts no area
+  std::array<Eigen::Vector3d, 16> polygon;
+  for (int i = 0; i < n; ++i) polygon[i] = Eigen::Vector3d(hull[i].x(), hull[i].y(), 0.0);
+  batch.Fan(std::span<const Eigen::Vector3d>(polygon.data(), static_cast<std::size_t>(n)),
+            {0, 0, 0, 0});  // drawn with glColor
 }
 
 // ---- 2-D overlay, drawn straight into the image (pixel coordinates, y down) ----
@@ -311,6 +498,36 @@ double GridRadius(const View& view, double spacing) {
   const double focal = view.projection(1, 1) * 0.5 * view.height;
   const double d2 = focal * spacing * h / kMinGridSpacingPx;
   return d2 > h * h ? std::sqrt(d2 - h * h) : 0.0;
+}
+
+// True when the ground square (half-width kGroundExtent around (cx, cy), z
+// = 0) covers the whole view: then the frame is cleared to the ground colour
+// instead of to the sky's with the ground drawn over it, the same pixels
+// without a full-frame polygon (llvmpipe shades every 4x4 block of a
+// polygon, and the ground quad was a quarter of a frame's cost). The pixels
+// whose rays meet the square form a convex region of the image (the
+// projection of a convex polygon in front of the eye), so the view is
+// covered when the rays through its four corners meet the square, between
+// the near and far planes, with a metre to spare.
+bool GroundFillsView(const View& view, double cx, double cy) {
+  const Eigen::Matrix4d inverse = (view.projection * view.view).inverse();
+  for (const double nx : {-1.0, 1.0}) {
+    for (const double ny : {-1.0, 1.0}) {
+      const Eigen::Vector4d a = inverse * Eigen::Vector4d(nx, ny, -1.0, 1.0);
+      const Eigen::Vector4d b = inverse * Eigen::Vector4d(nx, ny, 1.0, 1.0);
+      if (!(a.w() != 0.0 && b.w() != 0.0)) return false;
+      const Eigen::Vector3d near = a.head<3>() / a.w();
+      const Eigen::Vector3d far = b.head<3>() / b.w();
+      if (!((near.z() > 0.0 && far.z() < 0.0) || (near.z() < 0.0 && far.z() > 0.0))) return false;
+      const double t = near.z() / (near.z() - far.z());
+      const Eigen::Vector3d hit = near + t * (far - near);
+      const double margin = kGroundExtent - 1.0;
+      if (!hit.allFinite() || std::abs(hit.x() - cx) > margin || std::abs(hit.y() - cy) > margin) {
+        return false;
+      }
+    }
+  }
+  return true;
 }
 
 Color BodyColor(const SceneModule& m) {
@@ -411,8 +628,19 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   const GlFunctions& gl = context_->gl();
   const Eigen::Vector3d light = LightDirection(scene);
 
+  // The ground square's centre: the view's target on the 10 cm grid.
+  const double cx = std::round(view.target.x() / kFineGridSpacing) * kFineGridSpacing;
+  const double cy = std::round(view.target.y() / kFineGridSpacing) * kFineGridSpacing;
+  const bool ground_fills_view = GroundFillsView(view, cx, cy);
+  const std::array<GLubyte, 4> ground_rgba = Rgba(kGroundColor);
+
   gl.Viewport(0, 0, width, height);
-  gl.ClearColor(kSkyColor[0], kSkyColor[1], kSkyColor[2], 1.0f);
+  if (ground_fills_view) {
+    // The same 8-bit colour as the ground polygon's.
+    gl.ClearColor(ground_rgba[0] / 255.0f, ground_rgba[1] / 255.0f, ground_rgba[2] / 255.0f, 1.0f);
+  } else {
+    gl.ClearColor(kSkyColor[0], kSkyColor[1], kSkyColor[2], 1.0f);
+  }
   gl.ClearDepth(1.0);
   gl.ClearStencil(0);
   gl.Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT | GL_STENCIL_BUFFER_BIT);
@@ -431,13 +659,13 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
   Batch batch;
   gl.Disable(GL_DEPTH_TEST);
   gl.DepthMask(GL_FALSE);
-  const double cx = std::round(view.target.x() / kFineGridSpacing) * kFineGridSpacing;
-  const double cy = std::round(view.target.y() / kFineGridSpacing) * kFineGridSpacing;
-  batch.Quad(Eigen::Vector3d(cx - kGroundExtent, cy - kGroundExtent, 0.0),
-             Eigen::Vector3d(cx + kGroundExtent, cy - kGroundExtent, 0.0),
-             Eigen::Vector3d(cx + kGroundExtent, cy + kGroundExtent, 0.0),
-             Eigen::Vector3d(cx - kGroundExtent, cy + kGroundExtent, 0.0), Rgba(kGroundColor));
-  batch.Draw(gl, GL_TRIANGLES);
+  if (!ground_fills_view) {
+    batch.Quad(Eigen::Vector3d(cx - kGroundExtent, cy - kGroundExtent, 0.0),
+               Eigen::Vector3d(cx + kGroundExtent, cy - kGroundExtent, 0.0),
+               Eigen::Vector3d(cx + kGroundExtent, cy + kGroundExtent, 0.0),
+               Eigen::Vector3d(cx - kGroundExtent, cy + kGroundExtent, 0.0), ground_rgba);
+    batch.Draw(gl, GL_TRIANGLES);
+  }
   if (options.grid) {
     batch.Clear();
     gl.LineWidth(1.0f);
@@ -515,19 +743,21 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     gl.Disable(GL_STENCIL_TEST);
   }
 
-  // Solid objects: every face in one batch, then every edge in another.
+  // Solid objects: every face in one batch, with their edges when asked for
+  // (the face program), else flat faces (fixed function).
   gl.Enable(GL_DEPTH_TEST);
   gl.DepthFunc(GL_LEQUAL);
   gl.DepthMask(GL_TRUE);
   const Lighting lighting(options.lighting, light);
   batch.Clear();
-  Batch edges;
+  FaceBatch faces;
   for (const StaticBox& box : scene.boxes) {
     const Eigen::Isometry3d pose = ToIsometry(box.pose);
-    AddBox(batch, pose, Eigen::Vector3d::Zero(), box.size, kStaticBoxColor, lighting);
     if (options.edges) {
-      AddBoxEdges(edges, pose, Eigen::Vector3d::Zero(), box.size, Scale(kStaticBoxColor, 0.55f),
-                  view.eye);
+      faces.AddBox(pose, Eigen::Vector3d::Zero(), box.size, kStaticBoxColor,
+                   Scale(kStaticBoxColor, 0.55f), lighting, view.eye);
+    } else {
+      AddBox(batch, pose, Eigen::Vector3d::Zero(), box.size, kStaticBoxColor, lighting);
     }
   }
   for (const SceneModule& m : scene.modules) {
@@ -536,26 +766,25 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     for (const ShapeBox& box : scene.shape) {
       const bool is_body = box.part == ShapePart::kBody;
       const Color color = is_body ? BodyColor(m) : HandleColor(m);
-      AddBox(batch, is_body ? body : handle, box.center, box.size, color, lighting);
       if (options.edges) {
-        AddBoxEdges(edges, is_body ? body : handle, box.center, box.size, Scale(color, 0.45f),
-                    view.eye);
+        faces.AddBox(is_body ? body : handle, box.center, box.size, color, Scale(color, 0.45f),
+                     lighting, view.eye);
+      } else {
+        AddBox(batch, is_body ? body : handle, box.center, box.size, color, lighting);
       }
     }
-  }
-  if (options.edges) {
-    // Faces pushed back a little, so their own edges win the depth test.
-    gl.Enable(GL_POLYGON_OFFSET_FILL);
-    gl.PolygonOffset(1.0f, 1.0f);
   }
   // Boxes are closed and convex: their back faces are always hidden by their
   // front faces, so they are not rasterised at all.
   gl.Enable(GL_CULL_FACE);
   gl.CullFace(GL_BACK);
   gl.FrontFace(GL_CW);  // kFaces' winding
-  batch.Draw(gl, GL_TRIANGLES);
-  gl.Disable(GL_POLYGON_OFFSET_FILL);
-  edges.Draw(gl, GL_LINES);
+  if (options.edges) {
+    if (face_program_ == 0) face_program_ = BuildFaceProgram(gl);
+    faces.Draw(gl, face_program_);
+  } else {
+    batch.Draw(gl, GL_TRIANGLES);
+  }
   // The LED glows: unlit.
   if (const SceneModule* central = scene.Central()) {
     batch.Clear();

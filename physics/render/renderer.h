@@ -11,12 +11,14 @@
 // The same scene, camera, size and options give the same bytes.
 //
 // Cheap enough to film every evaluation (docs/benchmarks.md, "Rendering"):
-// the scene goes to OpenGL as six vertex-array batches (ground, grid,
-// shadows, faces, edges, LED) with no GL lighting (faces are flat, so each
-// face's soft lighting is computed here), each box's shadow is one convex
-// polygon, back faces and hidden edges are skipped, the ids and the legend
-// are written straight into the image, and OSMesa draws into the image's
-// own pixels.
+// the scene goes to OpenGL as five vertex-array batches (ground, grid,
+// shadows, faces, LED) with no GL lighting (faces are flat, so each face's
+// soft lighting is computed here), a view the ground fills is cleared to the
+// ground colour instead of drawing the ground, the box edges are drawn by
+// the faces' fragment shader rather than as lines, each box's shadow is one
+// convex polygon, back faces are skipped, the ids and the legend are
+// written straight into the image, and OSMesa draws into the image's own
+// pixels.
 #pragma once
 
 #include <memory>
@@ -110,6 +112,9 @@ class Renderer {
  private:
   Backend backend_;
   std::unique_ptr<internal::GlContext> context_;
+  // The GLSL program that draws faces with their edges (0: not built yet;
+  // built at the first frame with edges, owned by context_).
+  unsigned face_program_ = 0;
 };
 
 /// The calling thread's renderer (Backend::kAuto), created on first use and

@@ -128,6 +128,59 @@ TEST_P(RenderTest, ModuleColourAtItsProjectedCentreAndGroundElsewhere) {
   for (int i = 3; i < static_cast<int>(image.rgba.size()); i += 4) ASSERT_EQ(image.rgba[i], 255);
 }
 
+// Sky exactly where a pixel's ray misses the ground square (150 m around the
+// view's target) and ground where it meets it, for views from straight down
+// to level and from below the ground: the renderer clears the frame to the
+// ground colour instead of drawing the ground when the ground fills the
+// view, and must not do so when any sky shows.
+TEST_P(RenderTest, SkyExactlyWhereRaysMissTheGround) {
+  const Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.05));
+  const int w = 160;
+  const int h = 120;
+  int views_with_sky = 0;
+  int views_without_sky = 0;
+  for (const double elevation : {1.5, 1.0, 0.6, 0.45, 0.3, 0.2, 0.12, 0.08, 0.04, 0.0, -0.3}) {
+    for (const double distance : {0.8, 4.0, 60.0}) {
+      SCOPED_TRACE(fmt::format("elevation {}, distance {}", elevation, distance));
+      Camera camera;
+      camera.elevation = elevation;
+      camera.distance = distance;
+      const Image image = renderer_->Render(scene, camera, w, h, Flat());
+      const View view = ComputeView(camera, scene, w, h);
+      const Eigen::Matrix4d inverse = (view.projection * view.view).inverse();
+      const double cx = std::round(view.target.x() * 10.0) / 10.0;
+      const double cy = std::round(view.target.y() * 10.0) / 10.0;
+      int sky = 0;
+      int wrong = 0;
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          const auto p = image.At(x, y);
+          if (Near(p, ModuleColor(kModuleId))) continue;
+          const double nx = 2.0 * (x + 0.5) / w - 1.0;
+          const double ny = 1.0 - 2.0 * (y + 0.5) / h;
+          const Eigen::Vector4d a = inverse * Eigen::Vector4d(nx, ny, -1.0, 1.0);
+          const Eigen::Vector4d b = inverse * Eigen::Vector4d(nx, ny, 1.0, 1.0);
+          const Eigen::Vector3d near = a.head<3>() / a.w();
+          const Eigen::Vector3d far = b.head<3>() / b.w();
+          bool ground = (near.z() > 0.0) != (far.z() > 0.0);
+          if (ground) {
+            const Eigen::Vector3d hit = near + near.z() / (near.z() - far.z()) * (far - near);
+            ground = std::abs(hit.x() - cx) <= 150.0 && std::abs(hit.y() - cy) <= 150.0;
+          }
+          if (!ground) ++sky;
+          if (!Near(p, ground ? kGroundColor : kSkyColor)) ++wrong;
+        }
+      }
+      // Only pixels on the horizon's line may fall either way.
+      EXPECT_LE(wrong, w) << sky << " sky pixels expected";
+      (sky > 0 ? views_with_sky : views_without_sky) += 1;
+    }
+  }
+  // Both kinds of view were tried.
+  EXPECT_GT(views_with_sky, 5);
+  EXPECT_GT(views_without_sky, 5);
+}
+
 TEST_P(RenderTest, TopCameraLooksStraightDownWithYUp) {
   const Scene scene = OneModule(Eigen::Vector3d(0.3, 0.2, 0.05));
   Camera camera;
@@ -415,6 +468,85 @@ TEST_P(RenderTest, OverlappingShadowsDarkenTheGroundOnce) {
     const auto s = *shades.begin();
     EXPECT_NEAR(s[0], ground[0] * (1.0 - 0.38), 1.5) << Describe(s);
   }
+}
+
+// Box edges (drawn by the faces' fragment shader since docs/benchmarks.md's
+// third round, formerly GL lines): every edge that can show is drawn along
+// its whole length in the darker edge colour, about one pixel wide, and the
+// faces keep their own colour inside. Fails when edges vanish, break up or
+// grow into bands.
+TEST_P(RenderTest, EveryVisibleBoxEdgeIsDrawnAboutOnePixelWide) {
+  Scene scene = OneModule(Eigen::Vector3d(0, 0, 0.08));
+  scene.shape.resize(1);  // the body cube alone: no other box hides an edge
+  scene.modules[0].body.orientation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(0.2, 0.4, 1).normalized()));
+  const Camera camera = FixedCamera();
+  RenderOptions options = Flat();
+  options.edges = true;
+  const int width = 640;
+  const int height = 480;
+  const Image image = renderer_->Render(scene, camera, width, height, options);
+  const Image plain = renderer_->Render(scene, camera, width, height, Flat());
+  const View view = ComputeView(camera, scene, width, height);
+  const Color face = ModuleColor(kModuleId);
+  const Color edge = {face[0] * 0.45f, face[1] * 0.45f, face[2] * 0.45f};
+
+  int edge_pixels = 0;
+  int plain_edge_pixels = 0;
+  Centroid(image, edge, edge_pixels);
+  Centroid(plain, edge, plain_edge_pixels);
+  EXPECT_EQ(plain_edge_pixels, 0) << "no edge colour without edges";
+  // The centre of the body shows the face colour, not an edge.
+  const Eigen::Vector2d centre = *Project(view, scene.modules[0].body.position);
+  const auto cp = image.At(static_cast<int>(centre.x()), static_cast<int>(centre.y()));
+  EXPECT_TRUE(Near(cp, face)) << Describe(cp);
+
+  // The cube's corners and which of its faces turn towards the eye.
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = scene.modules[0].body.orientation.toRotationMatrix();
+  pose.translation() = scene.modules[0].body.position;
+  auto corner = [&](int i) {
+    return Eigen::Vector3d(pose * Eigen::Vector3d((i & 1) ? 0.05 : -0.05, (i & 2) ? 0.05 : -0.05,
+                                                  (i & 4) ? 0.05 : -0.05));
+  };
+  auto facing = [&](int axis, int side) {
+    const Eigen::Vector3d n = pose.linear().col(axis) * (side ? 1.0 : -1.0);
+    return n.dot(view.eye - (pose.translation() + 0.05 * n)) > 0.0;
+  };
+  auto is_edge = [&](int x, int y) {
+    return x >= 0 && y >= 0 && x < width && y < height && Near(image.At(x, y), edge);
+  };
+  double visible_length = 0.0;
+  int visible_edges = 0;
+  for (int i = 0; i < 8; ++i) {
+    for (int axis = 0; axis < 3; ++axis) {
+      if ((i >> axis) & 1) continue;
+      const int a = (axis + 1) % 3;
+      const int b = (axis + 2) % 3;
+      if (!facing(a, (i >> a) & 1) && !facing(b, (i >> b) & 1)) continue;  // hidden
+      ++visible_edges;
+      const Eigen::Vector2d p = *Project(view, corner(i));
+      const Eigen::Vector2d q = *Project(view, corner(i | (1 << axis)));
+      visible_length += (q - p).norm();
+      // Points along the edge, away from its corners: an edge pixel within a pixel.
+      for (double t = 0.1; t < 0.95; t += 0.1) {
+        const Eigen::Vector2d s = p + t * (q - p);
+        const int x = static_cast<int>(std::floor(s.x()));
+        const int y = static_cast<int>(std::floor(s.y()));
+        bool found = false;
+        for (int dy = -1; dy <= 1 && !found; ++dy) {
+          for (int dx = -1; dx <= 1 && !found; ++dx) found = is_edge(x + dx, y + dy);
+        }
+        EXPECT_TRUE(found) << "no edge pixel near " << s.transpose() << " on the edge from corner "
+                           << i << " along axis " << axis;
+      }
+    }
+  }
+  EXPECT_EQ(visible_edges, 9);  // a cube seen obliquely: three faces, nine edges
+  // About one pixel wide: as many edge pixels as the edges are long, give or
+  // take the corners and the stair steps of slanted lines.
+  EXPECT_GT(edge_pixels, 0.8 * visible_length) << "visible length " << visible_length;
+  EXPECT_LT(edge_pixels, 1.6 * visible_length) << "visible length " << visible_length;
 }
 
 TEST_P(RenderTest, SeveralThreadsRenderInParallelWithTheirOwnContexts) {
