@@ -3,7 +3,7 @@
 
 Usage: lifelong_bench.py [--parts transform,latency,recall,false-alarm] [--seeds 5 | --seed-list 4,5]
                          [--daemons N] [--out results/lifelong-bench] [--build build/release]
-                         [--online-budget 45] [--model-budget 300] [--offline-budget 1000]
+                         [--online-budget 45] [--model-budget 250] [--offline-budget 1000]
                          [--false-alarm-time 1800] [--quick]
 
 Parts (each reports trials, robot time and wall time separately, medians over the seeds):
@@ -391,7 +391,7 @@ def parse_args(argv):
     parser.add_argument("--out", default="results/lifelong-bench")
     parser.add_argument("--build", default="build/release")
     parser.add_argument("--online-budget", type=int, default=45)
-    parser.add_argument("--model-budget", type=int, default=300)
+    parser.add_argument("--model-budget", type=int, default=250)
     parser.add_argument("--offline-budget", type=int, default=1000)
     parser.add_argument("--offline-plugins", default="powell,cmaes",
                         help="plugins of the offline reference runs (the best counts)")

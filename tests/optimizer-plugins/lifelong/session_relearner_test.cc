@@ -28,7 +28,7 @@ std::map<std::string, std::string> FieldsOf(const std::string& plugin, const std
 TEST(SessionRelearnerTest, ModelModeUsesPowellsBatchLineSearch) {
   const auto fields = FieldsOf("powell", "model");
   EXPECT_EQ(fields.at("line_search"), "interval");
-  EXPECT_EQ(fields.at("max_evaluations"), "300");
+  EXPECT_EQ(fields.at("max_evaluations"), "250");
 }
 
 TEST(SessionRelearnerTest, OnlineKeepsThePluginsOwnLineSearch) {
