@@ -328,6 +328,14 @@ class LifeCycleTest : public ::testing::Test {
     return db_->Insert(g);
   }
   std::vector<const LifeEvent*> Trials() const { return log_.Of("recall_trial"); }
+  // The stored gait's trial of `windows` windows was rejected, its last
+  // window's decision "rejected", and the anomaly relearned.
+  void ExpectRejectedAndRelearned(const LifeSummary& s, std::size_t windows) const {
+    EXPECT_EQ(s.status.recalls, 0);
+    EXPECT_EQ(s.status.relearns, 1);
+    ASSERT_EQ(Trials().size(), windows);
+    EXPECT_EQ(MemoryLog::Field(*Trials().back(), "decision"), JsonString("rejected"));
+  }
 
   fs::path dir_;
   std::unique_ptr<GaitDatabase> db_;
@@ -449,10 +457,7 @@ TEST_F(LifeCycleTest, ThePlainRuleRejectsTheSameTrialAndRelearns) {
   };
   StoreErraticGait(0.008, {0.021});
   const LifeSummary s = Live(200);
-  EXPECT_EQ(s.status.recalls, 0);
-  EXPECT_EQ(s.status.relearns, 1);
-  ASSERT_EQ(Trials().size(), 1u);
-  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(s, 1));
 }
 
 TEST_F(LifeCycleTest, ACleanGaitKeepsTheOneWindowRuleWithoutTheRestartWindow) {
@@ -461,10 +466,7 @@ TEST_F(LifeCycleTest, ACleanGaitKeepsTheOneWindowRuleWithoutTheRestartWindow) {
   tweak_ = [](LifeOptions& o) { o.recall_restart_floor = 0; };
   StoreErraticGait(0.001, {0.023, 0.03, 0.03});
   const LifeSummary s = Live(200);
-  EXPECT_EQ(s.status.recalls, 0);
-  EXPECT_EQ(s.status.relearns, 1);
-  ASSERT_EQ(Trials().size(), 1u);
-  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(s, 1));
   EXPECT_NEAR(std::stod(MemoryLog::Field(*Trials()[0], "accept_level")), 0.024, 1e-12);
 }
 
@@ -490,19 +492,13 @@ TEST_F(LifeCycleTest, ACleanGaitsLowFirstWindowGetsASecondJudgedAlone) {
 TEST_F(LifeCycleTest, ACleanGaitLowInBothWindowsIsRejectedAfterTwo) {
   StoreErraticGait(0.001, {0.016, 0.02, 0.03});
   const LifeSummary s = Live(200);
-  EXPECT_EQ(s.status.recalls, 0);
-  EXPECT_EQ(s.status.relearns, 1);
-  ASSERT_EQ(Trials().size(), 2u);
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(s, 2));
   EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("longer"));
-  EXPECT_EQ(MemoryLog::Field(*Trials()[1], "decision"), JsonString("rejected"));
 }
 
 TEST_F(LifeCycleTest, ACleanGaitsFirstWindowBelowTheRestartFloorIsRejectedAtOnce) {
   StoreErraticGait(0.001, {0.011, 0.03});
-  const LifeSummary s = Live(200);
-  EXPECT_EQ(s.status.recalls, 0);
-  ASSERT_EQ(Trials().size(), 1u);
-  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(Live(200), 1));
 }
 
 TEST_F(LifeCycleTest, AnInconclusiveTrialOfANoisyGaitGetsMoreWindowsEachATrial) {
@@ -535,10 +531,7 @@ TEST_F(LifeCycleTest, AGaitThatStoppedWalkingIsRejectedAtOnce) {
   // 0.05 cm/s against 3 ± 0.8: below 3 − 3·0.8, beyond the gait's noise.
   StoreErraticGait(0.008, std::vector<double>(10, 0.0005));
   const LifeSummary s = Live(200);
-  EXPECT_EQ(s.status.recalls, 0);
-  EXPECT_EQ(s.status.relearns, 1);
-  ASSERT_EQ(Trials().size(), 1u);
-  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(s, 1));
 }
 
 TEST_F(LifeCycleTest, AVeryNoisyGaitThatStoppedWalkingIsRejectedWithinTheWindowLimit) {
@@ -546,22 +539,15 @@ TEST_F(LifeCycleTest, AVeryNoisyGaitThatStoppedWalkingIsRejectedWithinTheWindowL
   // a while, but never reaches the floor (half the expectation), and the
   // trial ends at --recall-windows.
   StoreErraticGait(0.03, std::vector<double>(10, 0.0005));
-  const LifeSummary s = Live(250);
-  EXPECT_EQ(s.status.recalls, 0);
-  EXPECT_EQ(s.status.relearns, 1);
-  ASSERT_EQ(Trials().size(), 4u);
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(Live(250), 4));
   for (int i = 0; i < 3; ++i) EXPECT_EQ(MemoryLog::Field(*Trials()[i], "decision"), JsonString("longer"));
-  EXPECT_EQ(MemoryLog::Field(*Trials()[3], "decision"), JsonString("rejected"));
   for (const LifeEvent* t : Trials()) EXPECT_EQ(MemoryLog::Field(*t, "accepted"), "false");
 }
 
 TEST_F(LifeCycleTest, TheTrialWindowLimitIsAnOption) {
   tweak_ = [](LifeOptions& o) { o.recall_max_windows = 1; };
   StoreErraticGait(0.008, {0.010, 0.030});
-  const LifeSummary s = Live(200);
-  EXPECT_EQ(s.status.recalls, 0);
-  ASSERT_EQ(Trials().size(), 1u);
-  EXPECT_EQ(MemoryLog::Field(*Trials()[0], "decision"), JsonString("rejected"));
+  ASSERT_NO_FATAL_FAILURE(ExpectRejectedAndRelearned(Live(200), 1));
 }
 
 TEST_F(LifeCycleTest, TheGaitsWindowNoiseIsStoredWhileItWalks) {
