@@ -159,7 +159,15 @@ def test_ctrl_c_stops_the_daemons_it_started(built, tmp_path):
         # reproduce.py gives yamor-optimize up to 60 s to write its results and
         # each daemon up to 30 s to drain (tools/reproduce/daemons.py); a wait of
         # exactly that sum failed twice on a loaded machine.
-        proc.wait(timeout=150)
+        try:
+            proc.wait(timeout=150)
+        except subprocess.TimeoutExpired:
+            # It has failed so rarely, and only on a loaded machine, that what
+            # was still running is the clue: say it.
+            alive = subprocess.run(["ps", "-o", "pid,ppid,stat,etime,args", "--ppid", str(proc.pid)],
+                                   capture_output=True, text=True).stdout
+            pytest.fail(f"reproduce.py still running 150 s after SIGINT; its children:\n{alive}\n"
+                        f"its output:\n{''.join(lines)}")
     finally:
         if proc.poll() is None:
             proc.kill()
