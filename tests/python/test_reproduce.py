@@ -132,10 +132,17 @@ def test_fig6_12_runs_both_methods_from_the_same_ten_starts(built, tmp_path):
     check_png(out / "fig6-12.png")
 
 
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def test_ctrl_c_stops_the_daemons_it_started(built, tmp_path):
+    # Started with SIGINT ignored, as `reproduce.py &` in a script or a CI job
+    # starts it; the tool must still stop on SIGINT (it once ran on).
     proc = subprocess.Popen([sys.executable, str(REPRODUCE), "fig6-12", "--quick", "--budget", "1000",
                              "--build", str(BUILD), "--daemons", "2", "--out", str(tmp_path)],
-                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                            cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=_ignore_sigint)
     lines: list[str] = []
     reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
     reader.start()  # drains the pipe so yamor-optimize's progress never blocks
@@ -162,8 +169,6 @@ def test_ctrl_c_stops_the_daemons_it_started(built, tmp_path):
         try:
             proc.wait(timeout=150)
         except subprocess.TimeoutExpired:
-            # It has failed so rarely, and only on a loaded machine, that what
-            # was still running is the clue: say it.
             alive = subprocess.run(["ps", "-o", "pid,ppid,stat,etime,args", "--ppid", str(proc.pid)],
                                    capture_output=True, text=True).stdout
             pytest.fail(f"reproduce.py still running 150 s after SIGINT; its children:\n{alive}\n"

@@ -234,6 +234,10 @@ def default_daemons() -> int:
 
 def main_guard(main) -> int:
     """Calls main(); maps ToolError to exit 1 and Ctrl-C/SIGTERM to 130 with a message."""
+    # A background job of a non-interactive shell (`tool &` in a script or CI)
+    # starts with SIGINT ignored, and Python keeps an inherited SIG_IGN; then
+    # `kill -INT` did nothing and the daemons and yamor-optimize ran on.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     sigterm_raises_interrupt()
     try:
         return main()
