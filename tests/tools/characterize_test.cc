@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -103,7 +104,8 @@ TEST(CharacterizeMovesTest, DropShiftsTheOffsetsAndVelocityKeepsGrowing) {
 }
 
 TEST(CharacterizeFilesTest, AtomicWriteLeavesNoPartialFile) {
-  const auto dir = std::filesystem::temp_directory_path() / "yamor_characterize_test";
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("yamor_characterize_test_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   WriteFileAtomically(dir / "a.csv", "x\n1\n");
@@ -141,7 +143,8 @@ class LoggedCsvTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = std::filesystem::temp_directory_path() /
-           ("yamor_characterize_log_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()));
+           ("yamor_characterize_log_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     std::filesystem::create_directories(dir_);
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }

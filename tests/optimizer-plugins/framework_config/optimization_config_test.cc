@@ -16,6 +16,7 @@
 #include <string>
 #include <thread>
 #include <vector>
+#include <unistd.h>
 
 #include "common/log.h"
 #include "common/status.h"
@@ -613,7 +614,8 @@ TEST(Errors, LoadFileNamesTheFile) {
   EXPECT_EQ(missing.code(), StatusCode::kNotFound);
   EXPECT_THAT(missing.what(), HasSubstr("/nonexistent/q.xml"));
 
-  const fs::path path = fs::temp_directory_path() / "yamor_optimization_config_test.xml";
+  const fs::path path = fs::temp_directory_path() /
+                         ("yamor_optimization_config_test_" + std::to_string(::getpid()) + ".xml");
   {
     std::ofstream out(path);
     out << Doc({kOptimizeA0, R"r(<constrain param="amplitude.1" expr="(amplitude.0()"/>)r"});

@@ -10,6 +10,7 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <unistd.h>
 
 #include "common/log.h"
 #include "common/status.h"
@@ -29,8 +30,8 @@ Frame BridgePosition() {
 
 std::string TempPath(const std::string& name) {
   return (std::filesystem::temp_directory_path() /
-          (name + "_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-           std::to_string(reinterpret_cast<uintptr_t>(&name))))
+          (name + "_" + std::to_string(::getpid()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name()))
       .string();
 }
 
