@@ -1,8 +1,15 @@
 #include "host/evaluator.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <memory>
 #include <set>
 #include <sstream>
 
@@ -14,6 +21,7 @@
 #include "host/snp_link.h"
 #include "physics/render/renderer.h"
 #include "physics/render/snapshot.h"
+#include "physics/render/video.h"
 
 namespace yamor::host {
 
@@ -118,7 +126,45 @@ void CheckFilm(const EvaluationFilm& film, double seconds) {
                     " frames per second is " + FormatRounded(seconds * film.frame_rate) +
                     " frames, more than " + FormatRounded(kMaxRecordFrames));
   }
+  if (film.png_frames.size() > kMaxPngFrames) {
+    throw Error(StatusCode::kOutOfRange,
+                std::to_string(film.png_frames.size()) + " PNG frames asked for; at most " +
+                    std::to_string(kMaxPngFrames));
+  }
+  const uint32_t count = EvaluationFrameCount(seconds, film.frame_rate);
+  for (const uint32_t index : film.png_frames) {
+    if (index >= count) {
+      throw Error(StatusCode::kOutOfRange, "PNG frame " + std::to_string(index) +
+                                               " is past the film's " + std::to_string(count) +
+                                               " frames");
+    }
+  }
 }
+
+// An empty temporary file for the film's MP4, removed when it goes out of scope.
+class TempVideoFile {
+ public:
+  TempVideoFile() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "yamor-film-XXXXXX.mp4").string();
+    const int fd = mkstemps(pattern.data(), 4);
+    if (fd < 0) {
+      throw Error(StatusCode::kInternal, "cannot create a temporary file for the film's MP4 in " +
+                                             std::filesystem::temp_directory_path().string());
+    }
+    close(fd);
+    path_ = pattern;
+  }
+  ~TempVideoFile() {
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+  }
+  TempVideoFile(const TempVideoFile&) = delete;
+  TempVideoFile& operator=(const TempVideoFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
 
 }  // namespace
 
@@ -233,18 +279,53 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   // Frame i is taken at step round(i / frame_rate / time_step): absolute
   // times, so a period that is no whole number of steps does not drift.
   std::size_t frame_bytes = 0;
+  uint32_t frames_taken = 0;
+  // With film->mp4: the film goes raw to ffmpeg here (about half the CPU of
+  // PNG frames a client makes into a video); without ffmpeg, PNG frames.
+  std::unique_ptr<TempVideoFile> video_file;
+  std::unique_ptr<render::VideoWriter> video;
+  const std::set<uint32_t> png_wanted =
+      spec.film ? std::set<uint32_t>(spec.film->png_frames.begin(), spec.film->png_frames.end())
+                : std::set<uint32_t>{};
+  if (spec.film && spec.film->mp4) {
+    video_file = std::make_unique<TempVideoFile>();
+    video = std::make_unique<render::VideoWriter>(
+        video_file->path(), render::VideoOptions{.frame_rate = spec.film->frame_rate,
+                                                 .raw_width = spec.film->frame.width,
+                                                 .raw_height = spec.film->frame.height});
+    if (!video->ToFfmpeg()) {
+      video->Finish();
+      video.reset();
+      result.video_note =
+          "the daemon's machine cannot run ffmpeg ($YAMOR_FFMPEG, else ffmpeg in PATH): every "
+          "frame comes as PNG instead";
+      Log().warn("evaluate: no MP4 of the film, PNG frames instead: {}", result.video_note);
+    }
+  }
   const auto frame_step = [&](uint32_t i) -> int64_t {
     return steps_of(static_cast<double>(i) / spec.film->frame_rate);
   };
   const auto take_frame = [&] {
-    EncodedFrame frame = EncodeFrame(robot.Scene(), spec.film->frame, *renderer, /*fast=*/true);
-    frame.index = static_cast<uint32_t>(result.frames.size());
+    const uint32_t index = frames_taken++;
+    EncodedFrame frame;
+    if (video) {
+      // Raw to ffmpeg; PNG only for the frames asked for.
+      const FrameSpec& f = spec.film->frame;
+      const render::Image image =
+          renderer->Render(robot.Scene(), f.camera, f.width, f.height, f.options);
+      video->AddImage(image);
+      if (!png_wanted.contains(index)) return;
+      frame = EncodedFrame{.time = robot.Scene().time, .png = render::EncodePng(image, /*fast=*/true)};
+    } else {
+      frame = EncodeFrame(robot.Scene(), spec.film->frame, *renderer, /*fast=*/true);
+    }
+    frame.index = index;
     frame_bytes += frame.png.size();
     if (frame_bytes > kMaxEvaluationFrameBytes) {
       throw Error(StatusCode::kOutOfRange,
                   "the frames of this evaluation pass " +
                       std::to_string(kMaxEvaluationFrameBytes >> 20) + " MiB at frame " +
-                      std::to_string(frame.index) + " of " + std::to_string(frame_count) +
+                      std::to_string(index) + " of " + std::to_string(frame_count) +
                       "; ask for smaller frames or a lower frame rate");
     }
     result.frames.push_back(std::move(frame));
@@ -252,8 +333,7 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   // Frames due at the current step (several when the rate is above 1/step).
   int64_t step = 0;
   const auto take_due_frames = [&] {
-    while (result.frames.size() < frame_count &&
-           frame_step(static_cast<uint32_t>(result.frames.size())) <= step) {
+    while (frames_taken < frame_count && frame_step(frames_taken) <= step) {
       take_frame();
     }
   };
@@ -269,8 +349,8 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     int64_t next = std::min(end_steps, step + chunk);
     if (step < warm_steps) next = std::min(next, warm_steps);
     if (sample_every > 0) next = std::min(next, (step / sample_every + 1) * sample_every);
-    if (spec.film && result.frames.size() < frame_count) {
-      next = std::min(next, frame_step(static_cast<uint32_t>(result.frames.size())));
+    if (spec.film && frames_taken < frame_count) {
+      next = std::min(next, frame_step(frames_taken));
     }
     std::string divergence;
     if (!robot.Step(next - step, time_step, divergence)) {
@@ -297,6 +377,22 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     const double dy = result.final_pose.position[1] - start_pose.position[1];
     result.distance = std::hypot(dx, dy);
     result.velocity = result.distance / spec.duration;
+  }
+  if (video) {
+    const render::VideoResult made = video->Finish();  // UNAVAILABLE with ffmpeg's messages
+    video.reset();
+    std::ifstream in(video_file->path(), std::ios::binary);
+    result.mp4.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof()) {
+      throw Error(StatusCode::kInternal, "cannot read the film's MP4 " + video_file->path());
+    }
+    result.mp4_frames = static_cast<uint32_t>(made.frames);
+    if (frame_bytes + result.mp4.size() > kMaxEvaluationFrameBytes) {
+      throw Error(StatusCode::kOutOfRange,
+                  "the film of this evaluation passes " +
+                      std::to_string(kMaxEvaluationFrameBytes >> 20) +
+                      " MiB; ask for smaller frames or a lower frame rate");
+    }
   }
   result.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

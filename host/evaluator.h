@@ -31,7 +31,15 @@ inline constexpr double kDefaultDuration = 12.0;
 struct EvaluationFilm {
   FrameSpec frame;          ///< How each frame is drawn (size, camera, options).
   double frame_rate = 25;   ///< Frames per simulated second, (0, kMaxFrameRate].
+  /// True: the frames go raw to ffmpeg on this machine and come back as one
+  /// MP4 (EvaluationResult::mp4); only `png_frames` are PNG-encoded.
+  bool mp4 = false;
+  /// With mp4: indices of frames also returned as PNG (at most kMaxPngFrames).
+  std::vector<uint32_t> png_frames;
 };
+
+/// Most frames a film made into an MP4 may also return as PNG.
+inline constexpr std::size_t kMaxPngFrames = 64;
 
 /// Most PNG bytes the frames of one evaluation may hold (512 MiB).
 inline constexpr std::size_t kMaxEvaluationFrameBytes = std::size_t{512} << 20;
@@ -82,8 +90,12 @@ struct EvaluationResult {
   std::string divergence;   ///< Why, when diverged.
   double wall_seconds = 0.0;  ///< Wall-clock time taken.
   /// With EvaluationSpec::film: the frames in order (index 0, 1, ...); a
-  /// diverged world ends them early.
+  /// diverged world ends them early. With film->mp4 and a video made: only
+  /// the frames of film->png_frames.
   std::vector<EncodedFrame> frames;
+  std::vector<uint8_t> mp4;  ///< With film->mp4: the film (H.264 MP4); empty when not made.
+  uint32_t mp4_frames = 0;   ///< Frames in `mp4`.
+  std::string video_note;    ///< With film->mp4: why `mp4` is empty (no ffmpeg here).
 };
 
 /// Runs one evaluation on the calling thread. Deterministic: the same spec
@@ -94,9 +106,11 @@ struct EvaluationResult {
 /// a module-defect module not in the world, INVALID_ARGUMENT for a module
 /// listed twice, CheckGroundValues' errors, for the film
 /// ValidateFrameSpec's and ValidateFrameRate's errors and OUT_OF_RANGE for
-/// more than kMaxRecordFrames frames (all checked before the world is
+/// more than kMaxRecordFrames frames, for a png_frames index at or past the
+/// frame count or more than kMaxPngFrames of them (all checked before the world is
 /// built); UNAVAILABLE when a film is asked for on a machine without a
 /// renderer; OUT_OF_RANGE when the frames pass kMaxEvaluationFrameBytes;
+/// UNAVAILABLE when ffmpeg fails while making the MP4 (with its messages);
 /// CANCELLED when
 /// `cancel` fires (checked between 0.1 s chunks of simulated time).
 /// Thread-safe: evaluations share nothing.

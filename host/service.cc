@@ -673,7 +673,9 @@ grpc::Status HostServiceImpl::Evaluate(grpc::ServerContext* context,
       const v1::EvaluationFrames& f = request->frames();
       spec.film = EvaluationFilm{
           .frame = ToFrameSpec(f.camera(), f.width(), f.height(), f.hide_labels(), f.hide_legend()),
-          .frame_rate = f.frame_rate()};
+          .frame_rate = f.frame_rate(),
+          .mp4 = f.mp4(),
+          .png_frames = {f.png_frames().begin(), f.png_frames().end()}};
     }
     const CancelCheck cancel = [this, context] {
       return context->IsCancelled() || stopping_.load() || pool_.stopping();
@@ -701,6 +703,10 @@ grpc::Status HostServiceImpl::Evaluate(grpc::ServerContext* context,
       out->set_png(frame.png.data(), frame.png.size());
       std::vector<uint8_t>().swap(frame.png);  // one copy of the bytes at a time
     }
+    response->set_mp4(r.mp4.data(), r.mp4.size());
+    std::vector<uint8_t>().swap(r.mp4);
+    response->set_mp4_frames(r.mp4_frames);
+    response->set_video_note(r.video_note);
   });
 }
 

@@ -176,7 +176,8 @@ std::pair<int, int> ParseVideoSize(const std::string& text) {
 // and its results stay as they are. Returns the lines to print.
 std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig& config,
                                        const Problem& problem, const SessionResult& result,
-                                       const FilmOptions& options, const fs::path& dir,
+                                       const FilmOptions& options, double seconds,
+                                       const fs::path& dir,
                                        const std::function<bool()>& cancelled) {
   std::vector<std::string> lines;
   try {
@@ -187,14 +188,28 @@ std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig&
     } catch (const Error&) {
       // The strip then spans the evaluation.
     }
-    const FilmResult film = pool.FilmCandidate(candidate, options, cancelled);
+    // The host makes the MP4 itself (raw frames to its ffmpeg: about half the
+    // CPU of PNG frames made into a video here) and sends as PNG only the
+    // strip's frames, chosen here from the frame times the film will have.
+    FilmOptions film_options = options;
+    film_options.mp4 = true;
+    const auto count = static_cast<std::size_t>(
+        std::max(1.0, std::round(seconds * options.frame_rate)));  // as the daemon counts them
+    std::vector<double> times(count);
+    for (std::size_t i = 0; i < count; ++i) times[i] = static_cast<double>(i) / options.frame_rate;
+    for (const std::size_t index : StripFrameIndices(times, period)) {
+      film_options.png_frames.push_back(static_cast<uint32_t>(index));
+    }
+    const FilmResult film = pool.FilmCandidate(candidate, film_options, cancelled);
     if (film.evaluation.velocity != result.best_velocity) {
       Log().warn("the filmed best gait ran at {} m/s on {}, the recorded best at {} m/s (hosts of "
                  "another build?)",
                  film.evaluation.velocity, film.evaluation.host, result.best_velocity);
     }
-    if (film.frames.empty()) throw Error(StatusCode::kInternal, film.evaluation.host + " sent no frames");
-    const BestVideo video = WriteBestVideo(film.frames, options.frame_rate, period, dir.string());
+    if (film.frames.empty() && film.mp4.empty()) {
+      throw Error(StatusCode::kInternal, film.evaluation.host + " sent no frames");
+    }
+    const BestVideo video = WriteBestVideo(film, options.frame_rate, period, dir.string());
     if (!video.video_error.empty()) {
       std::cerr << "yamor-optimize: warning: no video of the best gait: " << video.video_error << "\n";
     } else if (video.video) {
@@ -493,7 +508,7 @@ int main(int argc, char** argv) {
       std::vector<std::string> video_lines;
       if (!no_video && pool && r.has_best && !video_cancelled()) {
         if (!quiet) std::cerr << "yamor-optimize: filming the best gait (Ctrl-C skips it)\n";
-        video_lines = MakeBestVideo(*pool, config, problem, r, film_options,
+        video_lines = MakeBestVideo(*pool, config, problem, r, film_options, warmup + duration,
                                     fs::absolute(instance_dirs[i]), video_cancelled);
       }
       std::cout << "yamor-optimize: " << (batch_path.empty() ? "" : "[" + instances[i].name + "] ")

@@ -144,4 +144,43 @@ BestVideo WriteBestVideo(const std::vector<FilmFrame>& frames, double frame_rate
   return out;
 }
 
+BestVideo WriteBestVideo(const FilmResult& film, double frame_rate, double gait_period,
+                         const std::string& dir, const render::VideoOptions& video_options) {
+  if (film.mp4.empty()) {
+    BestVideo out = WriteBestVideo(film.frames, frame_rate, gait_period, dir, video_options);
+    if (out.note.empty()) out.note = film.video_note;
+    return out;
+  }
+  const fs::path folder(dir);
+  RemoveOldVideo(folder);
+  BestVideo out;
+  const fs::path video_path = folder / "best.mp4";
+  try {
+    // Whole or not at all: a partial best.mp4 is never left behind.
+    const fs::path partial = folder / "best.mp4.partial";
+    WriteFile(partial, Bytes(film.mp4));
+    fs::rename(partial, video_path);
+    out.video = true;
+    out.video_path = video_path.string();
+    out.frames = film.mp4_frames;
+  } catch (const std::exception& e) {
+    out.video_error = e.what();
+    std::error_code ec;
+    fs::remove(folder / "best.mp4.partial", ec);
+  }
+  try {
+    std::vector<render::Image> images;
+    for (const FilmFrame& frame : film.frames) images.push_back(render::DecodePng(Bytes(frame.png)));
+    const render::Image strip = ComposeStrip(images);
+    const fs::path strip_path = folder / "best-strip.png";
+    WriteFile(strip_path, render::EncodePng(strip));
+    out.strip_path = strip_path.string();
+    out.strip_width = strip.width;
+    out.strip_height = strip.height;
+  } catch (const std::exception& e) {
+    out.strip_error = e.what();
+  }
+  return out;
+}
+
 }  // namespace yamor::optimizer

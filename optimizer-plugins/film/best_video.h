@@ -60,4 +60,12 @@ BestVideo WriteBestVideo(const std::vector<FilmFrame>& frames, double frame_rate
                          double gait_period, const std::string& dir,
                          const render::VideoOptions& video_options = {});
 
+/// As above for a filmed evaluation: with an MP4 the host made
+/// (FilmOptions::mp4), best.mp4 is its bytes and best-strip.png is its PNG
+/// frames side by side, in order (the client asked for the strip's frames);
+/// without one (the host could not run ffmpeg), WriteBestVideo(film.frames,
+/// ...). Throws only yamor::Error(INVALID_ARGUMENT) for a film with neither.
+BestVideo WriteBestVideo(const FilmResult& film, double frame_rate, double gait_period,
+                         const std::string& dir, const render::VideoOptions& video_options = {});
+
 }  // namespace yamor::optimizer

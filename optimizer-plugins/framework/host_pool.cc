@@ -976,6 +976,8 @@ FilmResult HostPool::Impl::FilmCandidate(const Candidate& candidate, const FilmO
   frames->set_frame_rate(options.frame_rate);
   frames->set_hide_labels(options.hide_labels);
   frames->set_hide_legend(options.hide_legend);
+  frames->set_mp4(options.mp4);
+  for (const uint32_t index : options.png_frames) frames->add_png_frames(index);
   v1::Camera* camera = frames->mutable_camera();
   camera->set_kind(v1::CAMERA_FOLLOW);
   if (options.camera_distance) camera->set_distance(*options.camera_distance);
@@ -1051,8 +1053,12 @@ FilmResult HostPool::Impl::FilmCandidate(const Candidate& candidate, const FilmO
                            : std::chrono::duration<double>(Clock::now() - started).count();
       film.frames.reserve(static_cast<std::size_t>(response.frames_size()));
       for (v1::VideoFrame& frame : *response.mutable_frames()) {
-        film.frames.push_back(FilmFrame{.time = frame.time(), .png = std::move(*frame.mutable_png())});
+        film.frames.push_back(FilmFrame{
+            .time = frame.time(), .png = std::move(*frame.mutable_png()), .index = frame.index()});
       }
+      film.mp4 = std::move(*response.mutable_mp4());
+      film.mp4_frames = static_cast<int>(response.mp4_frames());
+      film.video_note = response.video_note();
       return film;
     }
     if (IsCallerError(status.error_code())) {

@@ -82,18 +82,29 @@ struct FilmOptions {
   bool hide_legend = false;  ///< No legend strip.
   /// Deadline of the filmed Evaluate [s]; 0: 3 x the evaluations' deadline.
   double deadline_seconds = 0;
+  /// True: the host makes the MP4 itself (EvaluationFrames.mp4) and sends
+  /// only `png_frames` as PNG; a host without ffmpeg sends every frame.
+  bool mp4 = false;
+  /// With mp4: indices of the frames also wanted as PNG (at most 64).
+  std::vector<uint32_t> png_frames;
 };
 
 /// One frame of a filmed evaluation.
 struct FilmFrame {
   double time = 0.0;  ///< Simulated time [s] since the start of the evaluation.
   std::string png;    ///< 8-bit RGB PNG bytes.
+  uint32_t index = 0; ///< 0, 1, ... in the film.
 };
 
 /// A filmed evaluation: its result and its frames in order.
 struct FilmResult {
   Evaluation evaluation;         ///< As EvaluateBatch would report it.
-  std::vector<FilmFrame> frames; ///< t = 0, 1/frame_rate, ...
+  /// t = 0, 1/frame_rate, ...: every frame, or with FilmOptions::mp4 and an
+  /// MP4 made only the png_frames.
+  std::vector<FilmFrame> frames;
+  std::string mp4;               ///< With FilmOptions::mp4: the host's MP4; empty when not made.
+  int mp4_frames = 0;            ///< Frames in `mp4`.
+  std::string video_note;        ///< Why `mp4` is empty although asked for.
 };
 
 /// How the pool treats failing hosts.
@@ -175,7 +186,7 @@ class HostPool final : public Evaluator {
   int Capacity() const override;
 
   /// Evaluates `candidate` once more, with the settings of every evaluation,
-  /// on one host of the pool, and returns its frames (issue 14: the video of
+  /// on one host of the pool, and returns its frames or its MP4 (issue 14: the video of
   /// the best gait). Hosts that are up are tried in turn (then the others)
   /// until one films it; a host's failure here does not mark it down and the
   /// evaluation counts in no host's `completed`. Independent of RequestStop:

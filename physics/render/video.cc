@@ -240,7 +240,21 @@ VideoWriter::VideoWriter(std::string path, VideoOptions options)
   std::vector<char*> args;
   for (std::string& a : argv) args.push_back(a.data());
   args.push_back(nullptr);
-  const int spawned = posix_spawnp(&pid_, args[0], &actions, nullptr, args.data(), environ);
+  // ffmpeg starts with no signal blocked and SIGPIPE at its default, whatever
+  // this process does (yamord blocks SIGINT/SIGTERM in every thread to wait
+  // for them; VideoWriter ignores SIGPIPE).
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  sigset_t no_signals;
+  sigemptyset(&no_signals);
+  posix_spawnattr_setsigmask(&attributes, &no_signals);
+  sigset_t pipe_signal;
+  sigemptyset(&pipe_signal);
+  sigaddset(&pipe_signal, SIGPIPE);
+  posix_spawnattr_setsigdefault(&attributes, &pipe_signal);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  const int spawned = posix_spawnp(&pid_, args[0], &actions, &attributes, args.data(), environ);
+  posix_spawnattr_destroy(&attributes);
   posix_spawn_file_actions_destroy(&actions);
   close(fds[0]);
   if (spawned != 0) {

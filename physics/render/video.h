@@ -76,6 +76,9 @@ class VideoWriter {
   /// Closes the video and waits for ffmpeg. Throws yamor::Error(UNAVAILABLE)
   /// with ffmpeg's messages when it failed.
   VideoResult Finish();
+  /// True while frames go to ffmpeg; false when it could not be started
+  /// (frames then become the PNG sequence) or after Finish.
+  bool ToFfmpeg() const { return pipe_ >= 0; }
 
  private:
   std::string FfmpegMessages() const;

@@ -1,11 +1,18 @@
 // RobotDriver over the in-process simulation, and Evaluate.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -764,6 +771,96 @@ TEST(EvaluateTest, BadFilmValuesAreRefusedNamingThemBeforeTheWorld) {
   EXPECT_NE(message.find("240000 frames, more than 100000"), std::string::npos) << message;
   EXPECT_EQ(EvaluationFrameCount(3.0, 25.0), 75u);
   EXPECT_EQ(EvaluationFrameCount(0.01, 25.0), 1u);
+}
+
+bool FfmpegInstalled() {
+  return std::system("ffmpeg -version > /dev/null 2>&1") == 0 &&
+         std::system("ffprobe -version > /dev/null 2>&1") == 0;
+}
+
+// `command`'s standard output.
+std::string OutputOf(const std::string& command) {
+  std::string out;
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+  if (!pipe) return out;
+  char buffer[256];
+  while (std::fgets(buffer, sizeof(buffer), pipe.get())) out += buffer;
+  return out;
+}
+
+// EvaluationFilm::mp4: the frames go raw to ffmpeg in the evaluating
+// process; only the frames asked for come back as PNG, the same pictures
+// as those of a PNG film.
+TEST(EvaluateTest, AFilmAsMp4IsMadeHereWithOnlyTheAskedForFramesAsPng) {
+  if (!FfmpegInstalled()) GTEST_SKIP() << "ffmpeg not installed";
+  EvaluationSpec spec = QuadrupedEvaluation(0.5, 1.0);
+  spec.film = EvaluationFilm{.frame = {.width = 48, .height = 36}, .frame_rate = 10};
+  EvaluationResult png_film;
+  try {
+    png_film = RunEvaluation(spec, nullptr);
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kUnavailable) throw;
+    GTEST_SKIP() << "no renderer on this machine: " << e.what();
+  }
+  ASSERT_EQ(png_film.frames.size(), 15u);
+  spec.film->mp4 = true;
+  spec.film->png_frames = {14, 0, 7};
+  const EvaluationResult film = RunEvaluation(spec, nullptr);
+  EXPECT_EQ(film.velocity, png_film.velocity) << "filming never changes the evaluation";
+  EXPECT_TRUE(film.video_note.empty()) << film.video_note;
+  EXPECT_EQ(film.mp4_frames, 15u);
+  ASSERT_GT(film.mp4.size(), 8u);
+  EXPECT_EQ(std::string(film.mp4.begin() + 4, film.mp4.begin() + 8), "ftyp") << "an MP4 file";
+  ASSERT_EQ(film.frames.size(), 3u);
+  const uint32_t wanted[] = {0, 7, 14};
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(film.frames[i].index, wanted[i]);
+    EXPECT_EQ(film.frames[i].time, png_film.frames[wanted[i]].time);
+    EXPECT_EQ(film.frames[i].png, png_film.frames[wanted[i]].png) << "frame " << wanted[i];
+  }
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     ("yamor_film_test_" + std::to_string(::getpid()) + ".mp4");
+  std::ofstream(path, std::ios::binary)
+      .write(reinterpret_cast<const char*>(film.mp4.data()),
+             static_cast<std::streamsize>(film.mp4.size()));
+  const std::string probe =
+      OutputOf("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+          "stream=codec_name,width,height,nb_read_frames -of csv=p=0 " + path.string());
+  std::filesystem::remove(path);
+  EXPECT_EQ(probe, "h264,48,36,15\n");
+}
+
+// A machine without ffmpeg: every frame as PNG, and a note that says why.
+TEST(EvaluateTest, AFilmAsMp4WithoutFfmpegComesAsPngFramesWithANote) {
+  EvaluationSpec spec = QuadrupedEvaluation(0.5, 1.0);
+  spec.film = EvaluationFilm{.frame = {.width = 16, .height = 12}, .frame_rate = 10, .mp4 = true,
+                             .png_frames = {3}};
+  ::setenv("YAMOR_FFMPEG", "/nonexistent/ffmpeg", 1);
+  EvaluationResult film;
+  try {
+    film = RunEvaluation(spec, nullptr);
+  } catch (const Error& e) {
+    ::unsetenv("YAMOR_FFMPEG");
+    if (e.code() != StatusCode::kUnavailable) throw;
+    GTEST_SKIP() << "no renderer on this machine: " << e.what();
+  }
+  ::unsetenv("YAMOR_FFMPEG");
+  EXPECT_TRUE(film.mp4.empty());
+  EXPECT_NE(film.video_note.find("cannot run ffmpeg"), std::string::npos) << film.video_note;
+  ASSERT_EQ(film.frames.size(), 15u);
+  for (std::size_t i = 0; i < film.frames.size(); ++i) EXPECT_EQ(film.frames[i].index, i);
+}
+
+TEST(EvaluateTest, PngFramesOfAnMp4FilmAreCheckedBeforeTheWorld) {
+  EvaluationSpec spec = QuadrupedEvaluation(0.5, 1.0);
+  spec.film = EvaluationFilm{.frame = {.width = 16, .height = 12}, .frame_rate = 10, .mp4 = true,
+                             .png_frames = {0, 15}};
+  std::string message;
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(spec, nullptr); }, &message), StatusCode::kOutOfRange);
+  EXPECT_EQ(message, "PNG frame 15 is past the film's 15 frames");
+  spec.film->png_frames.assign(65, 0);
+  EXPECT_EQ(CodeOf([&] { RunEvaluation(spec, nullptr); }, &message), StatusCode::kOutOfRange);
+  EXPECT_EQ(message, "65 PNG frames asked for; at most 64");
 }
 
 TEST(EvaluateTest, TheWorkerPoolRunsJobsInParallelAndPropagatesErrors) {

@@ -9,7 +9,8 @@
 # real robot or a simulation sends over SNP.
 # Also allowed: the renderer's headers (physics/render/: the scene value, its
 # conversion from the SNP scene snapshot, cameras, images, the renderer, and
-# raster_threads.h, which yamord's main calls before any thread starts). The
+# raster_threads.h, which yamord's main calls before any thread starts; and
+# video.h, through which a filmed Evaluate pipes its frames to ffmpeg). The
 # host draws what a ReadScene bridge special returned (RenderFrame,
 # RecordFrames); none of them touches a world or ODE.
 # Run: cmake -DSOURCE_DIR=<repo> -P tests/host/include_guard.cmake
@@ -18,7 +19,8 @@ file(GLOB host_files "${SOURCE_DIR}/host/*.h" "${SOURCE_DIR}/host/*.cc")
 set(backend_files sim_backend.h sim_backend.cc)
 set(allowed_headers physics/morphology.h physics/script.h physics/orientation.h
     physics/render/scene.h physics/render/snapshot.h physics/render/camera.h
-    physics/render/image.h physics/render/renderer.h physics/render/raster_threads.h)
+    physics/render/image.h physics/render/renderer.h physics/render/raster_threads.h
+    physics/render/video.h)
 set(violations "")
 foreach(path IN LISTS host_files)
   get_filename_component(name "${path}" NAME)

@@ -3,8 +3,9 @@
 Real yamord daemons (one Evaluate worker each) on ephemeral ports and the
 real yamor-optimize binary, with short evaluations (1 s warm-up + 2 s) and a
 tiny budget. Checks best.mp4 with ffprobe (frame count and size) when ffmpeg
-is installed, best-strip.png's size, the numbered PNG sequence and its note
-when ffmpeg cannot run, that --no-video writes neither, and that a pool
+is installed (made by the daemon, or here from PNG frames when the daemon
+has no ffmpeg), best-strip.png's size, the numbered PNG sequence and its
+note when neither can run ffmpeg, that --no-video writes neither, and that a pool
 whose daemons cannot render loses nothing of the run (a warning only).
 """
 
@@ -97,7 +98,10 @@ def _summary_without_timing(folder: Path):
                     reason="ffmpeg/ffprobe not installed")
 def test_best_mp4_and_strip_of_the_best_gait(daemon, tmp_path):
     out = tmp_path / "run"
-    result = _run([*SHORT, "--hosts", daemon, "--video-size", "160x120", "--out", str(out)])
+    # The daemon makes the MP4 (EvaluationFrames.mp4): yamor-optimize needs no ffmpeg of its own.
+    client_without_ffmpeg = dict(os.environ, YAMOR_FFMPEG=str(tmp_path / "no-such-ffmpeg"))
+    result = _run([*SHORT, "--hosts", daemon, "--video-size", "160x120", "--out", str(out)],
+                  env=client_without_ffmpeg)
     assert f"video:     {out / 'best.mp4'} ({FRAMES} frames, 25 fps" in result.stdout
     probe = json.loads(subprocess.run(
         ["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
@@ -127,9 +131,15 @@ def test_no_video_writes_neither(daemon, tmp_path):
 
 
 def test_without_ffmpeg_a_png_sequence_and_a_note(daemon, tmp_path):
-    out = tmp_path / "run"
+    """Neither the daemon nor yamor-optimize can run ffmpeg."""
     env = dict(os.environ, YAMOR_FFMPEG=str(tmp_path / "no-such-ffmpeg"))
-    result = _run([*SHORT, "--hosts", daemon, "--video-size", "64x48", "--out", str(out)], env=env)
+    proc, plain = _start_daemon(tmp_path / "no-ffmpeg.log", env=env)
+    out = tmp_path / "run"
+    try:
+        result = _run([*SHORT, "--hosts", plain, "--video-size", "64x48", "--out", str(out)],
+                      env=env)
+    finally:
+        _stop(proc)
     frames = sorted(out.glob("best-0*.png"))
     assert [f.name for f in frames] == [f"best-{i:06d}.png" for i in range(FRAMES)]
     assert _png_size(frames[0]) == (64, 48)
@@ -137,6 +147,28 @@ def test_without_ffmpeg_a_png_sequence_and_a_note(daemon, tmp_path):
     assert f"{FRAMES} frames as {out / 'best-%06d.png'}" in result.stdout
     assert re.search(r"note: .*cannot run .*no-such-ffmpeg.*ffmpeg -framerate 25", result.stdout)
     assert _png_size(out / "best-strip.png") == (6 * 64 + 5 * 4, 48)
+
+
+@pytest.mark.skipif(shutil.which("ffprobe") is None or shutil.which("ffmpeg") is None,
+                    reason="ffmpeg/ffprobe not installed")
+def test_a_daemon_without_ffmpeg_sends_frames_and_the_video_is_made_here(daemon, tmp_path):
+    """The daemon makes best.mp4 itself when it can; when it cannot, it sends
+    every frame as PNG and yamor-optimize makes the same-sized video."""
+    env = dict(os.environ, YAMOR_FFMPEG=str(tmp_path / "no-such-ffmpeg"))
+    proc, plain = _start_daemon(tmp_path / "no-ffmpeg.log", env=env)
+    out = tmp_path / "run"
+    try:
+        result = _run([*SHORT, "--hosts", plain, "--video-size", "64x48", "--out", str(out)])
+    finally:
+        _stop(proc)
+    assert f"video:     {out / 'best.mp4'} ({FRAMES} frames, 25 fps" in result.stdout
+    probe = json.loads(subprocess.run(
+        ["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+         "stream=nb_read_frames,width,height", "-of", "json", str(out / "best.mp4")],
+        capture_output=True, text=True, check=True).stdout)["streams"][0]
+    assert (probe["width"], probe["height"], int(probe["nb_read_frames"])) == (64, 48, FRAMES)
+    assert _png_size(out / "best-strip.png") == (6 * 64 + 5 * 4, 48)
+    assert "cannot run ffmpeg" in (tmp_path / "no-ffmpeg.log").read_text()
 
 
 def test_a_pool_that_cannot_film_keeps_the_run(daemon, tmp_path):

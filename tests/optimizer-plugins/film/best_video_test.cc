@@ -128,7 +128,7 @@ TEST(BestVideoTest, AFailingFfmpegLeavesNoVideoButTheStrip) {
   EXPECT_FALSE(fs::exists(dir.path() / "best.mp4"));
   EXPECT_TRUE(video.strip_error.empty()) << video.strip_error;
   EXPECT_TRUE(fs::exists(dir.path() / "best-strip.png"));
-  EXPECT_THROW(WriteBestVideo({}, 25.0, 0.0, dir.path().string()), Error);
+  EXPECT_THROW(WriteBestVideo(std::vector<FilmFrame>{}, 25.0, 0.0, dir.path().string()), Error);
 }
 
 TEST(BestVideoTest, WithFfmpegAnMp4) {

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -220,6 +221,24 @@ TEST(HostPoolYamordTest, FilmCandidateReturnsTheFramesOfTheSameEvaluation) {
   for (std::size_t i = 0; i < film.frames.size(); ++i) {
     EXPECT_NEAR(film.frames[i].time, 0.1 * static_cast<double>(i), 1e-9);
     EXPECT_EQ(film.frames[i].png.substr(1, 3), "PNG");
+  }
+  EXPECT_TRUE(film.mp4.empty()) << "PNG frames unless an MP4 is asked for";
+
+  // The host makes the MP4 and sends only the frames asked for as PNG.
+  if (std::system("ffmpeg -version > /dev/null 2>&1") == 0) {
+    FilmOptions mp4 = options;
+    mp4.mp4 = true;
+    mp4.png_frames = {0, 19};
+    const FilmResult made = pool.FilmCandidate(candidate, mp4);
+    EXPECT_EQ(made.evaluation.velocity, batch[0].velocity);
+    EXPECT_TRUE(made.video_note.empty()) << made.video_note;
+    EXPECT_EQ(made.mp4_frames, 20);
+    ASSERT_GT(made.mp4.size(), 8u);
+    EXPECT_EQ(made.mp4.substr(4, 4), "ftyp");
+    ASSERT_EQ(made.frames.size(), 2u);
+    EXPECT_EQ(made.frames[0].index, 0u);
+    EXPECT_EQ(made.frames[1].index, 19u);
+    EXPECT_EQ(made.frames[1].png, film.frames[19].png) << "the same picture as the PNG film's";
   }
 
   // A caller error names the value and the host; no other host is tried.
