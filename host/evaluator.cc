@@ -284,6 +284,7 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   // PNG frames a client makes into a video); without ffmpeg, PNG frames.
   std::unique_ptr<TempVideoFile> video_file;
   std::unique_ptr<render::VideoWriter> video;
+  render::Image image;  // the MP4's frames, one buffer for all
   const std::set<uint32_t> png_wanted =
       spec.film ? std::set<uint32_t>(spec.film->png_frames.begin(), spec.film->png_frames.end())
                 : std::set<uint32_t>{};
@@ -311,8 +312,7 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     if (video) {
       // Raw to ffmpeg; PNG only for the frames asked for.
       const FrameSpec& f = spec.film->frame;
-      const render::Image image =
-          renderer->Render(robot.Scene(), f.camera, f.width, f.height, f.options);
+      renderer->RenderInto(robot.Scene(), f.camera, f.width, f.height, f.options, image);
       video->AddImage(image);
       if (!png_wanted.contains(index)) return;
       frame = EncodedFrame{.time = robot.Scene().time, .png = render::EncodePng(image, /*fast=*/true)};

@@ -610,12 +610,18 @@ const std::string& Renderer::description() const { return context_->description(
 
 Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int height,
                        const RenderOptions& options) {
+  Image image;
+  RenderInto(scene, camera, width, height, options, image);
+  return image;
+}
+
+void Renderer::RenderInto(const Scene& scene, const Camera& camera, int width, int height,
+                          const RenderOptions& options, Image& image) {
   ValidateFrameSize(width, height);
   ValidateScene(scene);
   const View view = ComputeView(camera, scene, width, height);
-  // Declared before the release below, so OSMesa's target (the image's
-  // pixels) outlives the context's binding even when drawing throws.
-  Image image;
+  // `image` is the caller's, so OSMesa's target (its pixels) outlives the
+  // context's binding, released below, even when drawing throws.
   image.width = width;
   image.height = height;
   context_->MakeCurrent(width, height, image.rgba);
@@ -855,7 +861,6 @@ Image Renderer::Render(const Scene& scene, const Camera& camera, int width, int 
     }
     DrawText(image, time, width - time_width + 2 * k, top + k, k, kTextColor);
   }
-  return image;
 }
 
 Renderer& ThreadRenderer() {

@@ -108,6 +108,11 @@ class Renderer {
   /// ValidateScene), INTERNAL when OpenGL fails.
   Image Render(const Scene& scene, const Camera& camera, int width, int height,
                const RenderOptions& options = {});
+  /// As Render, into `image`, reusing its memory: for frame after frame of
+  /// one size (a video), which then touches no fresh pages. On an error
+  /// `image` holds no valid frame.
+  void RenderInto(const Scene& scene, const Camera& camera, int width, int height,
+                  const RenderOptions& options, Image& image);
 
  private:
   Backend backend_;

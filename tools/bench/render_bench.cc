@@ -148,6 +148,7 @@ VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw,
   std::vector<uint8_t> yuv;
   const double children_start = ChildrenCpuSeconds();
   yamor::render::VideoResult video;
+  yamor::render::Image image;  // raw frames: one buffer, as a filmed Evaluate keeps
   {
     yamor::render::VideoOptions options{.frame_rate = 25};
     if (raw) {
@@ -157,8 +158,11 @@ VideoCost MakeVideo(Renderer& renderer, const Camera& camera, bool raw,
     yamor::render::VideoWriter writer(path, options);
     for (int i = 0; i < 500; ++i) {
       const double t0 = ProcessCpuSeconds();
-      const yamor::render::Image image =
-          renderer.Render(yamor::bridge::SceneOf(robot->world()), camera, 320, 240);
+      if (raw) {
+        renderer.RenderInto(yamor::bridge::SceneOf(robot->world()), camera, 320, 240, {}, image);
+      } else {
+        image = renderer.Render(yamor::bridge::SceneOf(robot->world()), camera, 320, 240);
+      }
       cost.render_cpu += ProcessCpuSeconds() - t0;
       if (raw) {
         writer.AddImage(image);
