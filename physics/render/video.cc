@@ -28,10 +28,6 @@ extern char** environ;
 namespace yamor::render {
 namespace {
 
-// Raw frames are piped to ffmpeg in batches of at least this many bytes
-// (half the 1 MiB pipe; 4-5 frames at 320x240).
-constexpr std::size_t kPipeBatchBytes = std::size_t{512} << 10;
-
 namespace fs = std::filesystem;
 
 bool EndsWith(const std::string& text, const std::string& suffix) {
@@ -351,17 +347,8 @@ void VideoWriter::AddImage(const Image& image) {
     return;
   }
   RgbaToYuv420(image, yuv_);
-  // Piped a few frames at a time: ffmpeg then waits for input once per
-  // batch, not once per frame (each wait and wake-up costs it CPU).
-  pending_.insert(pending_.end(), yuv_.begin(), yuv_.end());
+  WriteToFfmpeg(yuv_.data(), yuv_.size());
   ++result_.frames;
-  if (pending_.size() >= kPipeBatchBytes) FlushPending();
-}
-
-void VideoWriter::FlushPending() {
-  if (pending_.empty()) return;
-  WriteToFfmpeg(pending_.data(), pending_.size());
-  pending_.clear();
 }
 
 void VideoWriter::WriteToFfmpeg(const uint8_t* data, std::size_t size) {
@@ -383,7 +370,6 @@ void VideoWriter::WriteToFfmpeg(const uint8_t* data, std::size_t size) {
 
 VideoResult VideoWriter::Finish() {
   YAMOR_CHECK(!finished_, "VideoWriter::Finish called twice");
-  if (result_.video) FlushPending();  // may throw, then Stop() in the destructor
   finished_ = true;
   if (!result_.video) return result_;
   close(pipe_);

@@ -84,7 +84,6 @@ class VideoWriter {
   std::string FfmpegMessages() const;
   void Stop();
   void WriteToFfmpeg(const uint8_t* data, std::size_t size);
-  void FlushPending();
   void WriteSequenceFile(std::span<const uint8_t> png);
 
   std::string path_;
@@ -93,8 +92,7 @@ class VideoWriter {
   int pipe_ = -1;           // ffmpeg's stdin
   std::string log_path_;    // ffmpeg's stderr
   std::string sequence_stem_;  // "dir/out" of dir/out-000000.png (no ffmpeg)
-  std::vector<uint8_t> yuv_;      // raw mode: the frame being converted
-  std::vector<uint8_t> pending_;  // raw mode: converted frames not yet piped
+  std::vector<uint8_t> yuv_;   // raw mode: the frame being piped
   bool finished_ = false;
   VideoResult result_;
 };

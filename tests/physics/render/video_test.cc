@@ -130,32 +130,6 @@ TEST_F(VideoTest, RawImagesMakeTheSameVideo) {
             "64,48,12\n");
 }
 
-// Raw frames go to ffmpeg in batches of about 512 KiB: full batches while
-// frames come, the rest at Finish; a failure shows at the latest there.
-TEST_F(VideoTest, RawFramesInBatchesAndTheRestAtFinishAllReachTheVideo) {
-  if (!HaveFfmpeg()) GTEST_SKIP() << "ffmpeg is not installed";
-  const std::string path = (dir_ / "batches.mp4").string();
-  // 115,200 bytes a frame: a batch after the fifth, two left for Finish.
-  VideoWriter writer(path, VideoOptions{.frame_rate = 25, .raw_width = 320, .raw_height = 240});
-  for (int i = 0; i < 7; ++i) writer.AddImage(RawFrame(320, 240, i * 30));
-  const VideoResult result = writer.Finish();
-  EXPECT_EQ(result.frames, 7);
-  EXPECT_EQ(Shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
-                  "stream=nb_read_frames,width,height -of csv=p=0 " + path),
-            "320,240,7\n");
-
-  VideoWriter unwritable((dir_ / "no" / "such" / "dir.mp4").string(),
-                         VideoOptions{.frame_rate = 25, .raw_width = 16, .raw_height = 12});
-  try {
-    unwritable.AddImage(RawFrame(16, 12, 0));
-    unwritable.Finish();
-    ADD_FAILURE() << "an unwritable path succeeded";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.code(), StatusCode::kUnavailable);
-    EXPECT_NE(std::string(e.what()).find("ffmpeg"), std::string::npos) << e.what();
-  }
-}
-
 TEST_F(VideoTest, RawImagesWithoutFfmpegBecomeThePngSequence) {
   const std::string path = (dir_ / "raw.mp4").string();
   VideoWriter writer(path, VideoOptions{.frame_rate = 25, .ffmpeg = "/nonexistent/ffmpeg",
