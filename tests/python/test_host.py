@@ -4,6 +4,7 @@ Evaluate, WatchState."""
 from __future__ import annotations
 
 import math
+import shutil
 import threading
 import time
 
@@ -274,6 +275,20 @@ def test_a_filmed_evaluation_returns_its_frames(fresh):
         fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, distance=math.nan)
     assert e.value.code == "INVALID_ARGUMENT" and "camera distance is not finite" in str(e.value)
     assert fresh.elapsed_time() == 0.0
+
+
+@pytest.mark.skipif(shutil.which("ffmpeg") is None, reason="ffmpeg not installed")
+def test_a_filmed_evaluation_as_one_mp4_made_by_the_daemon(fresh):
+    pngs = fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, width=40, height=30)
+    film = fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, width=40, height=30,
+                          mp4=True, png_frames=[5, 2])
+    assert film.velocity == pngs.velocity
+    assert film.mp4[4:8] == b"ftyp" and film.mp4_frames == 6 and film.video_note == ""
+    assert [f.index for f in film.frames] == [2, 5]
+    assert [f.png for f in film.frames] == [pngs.frames[2].png, pngs.frames[5].png]
+    with pytest.raises(yamor.HostError) as e:
+        fresh.evaluate(seed=5, warmup=0.5, duration=1, frame_rate=4, mp4=True, png_frames=[6])
+    assert e.value.code == "OUT_OF_RANGE" and "PNG frame 6 is past the film's 6 frames" in str(e.value)
 
 
 def test_evaluate_takes_the_robots_condition(fresh):

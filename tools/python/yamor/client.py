@@ -185,6 +185,10 @@ class Evaluation:
     wall_seconds: float
     #: With ``frame_rate`` > 0: the frames of the evaluation (PNG), t = 0, 1/rate, ...
     frames: List["Frame"] = field(default_factory=list)
+    #: With ``mp4``: the film as one H.264 MP4 made by the daemon (b"" when it cannot run ffmpeg)
+    mp4: bytes = b""
+    mp4_frames: int = 0  #: frames in ``mp4``
+    video_note: str = ""  #: why ``mp4`` is empty although asked for
 
 
 def _vector(v: pb.Vector3) -> Vector:
@@ -628,7 +632,8 @@ class Host:
                  upside_down: bool = False, frame_rate: float = 0.0, width: int = 320,
                  height: int = 240, camera: str = "follow", distance: Optional[float] = None,
                  elevation: Optional[float] = None, azimuth: Optional[float] = None,
-                 labels: bool = True, legend: bool = True,
+                 labels: bool = True, legend: bool = True, mp4: bool = False,
+                 png_frames: Iterable[int] = (),
                  timeout: Optional[float] = None) -> Evaluation:
         """Stateless gait evaluation on the daemon's worker pool (Evaluate).
 
@@ -643,6 +648,9 @@ class Host:
         result's ``frames`` hold a PNG every 1/frame_rate simulated seconds of
         it, warm-up included, ``width`` x ``height``, camera options as
         :meth:`snapshot` (follow only); the deadline adds 0.2 s per frame.
+        ``mp4`` has the daemon make the film into one MP4 itself (its ffmpeg)
+        and send as PNG only the frames indexed in ``png_frames``; a daemon
+        without ffmpeg sends every frame and says why in ``video_note``.
         """
         if config_file is not None:
             config_xml = _read_text(config_file)
@@ -674,14 +682,15 @@ class Host:
             request.frames.CopyFrom(pb.EvaluationFrames(
                 camera=self._camera(camera, distance, elevation, azimuth, None, None, None, 0.0),
                 width=width, height=height, hide_labels=not labels, hide_legend=not legend,
-                frame_rate=frame_rate))
+                frame_rate=frame_rate, mp4=mp4, png_frames=list(png_frames)))
             work = simulated * frame_rate * 0.2
             extra += work if math.isfinite(work) else 0.0
         r = self._call("Evaluate", request, timeout, extra)
         return Evaluation(r.velocity, r.distance, _pose(r.final_pose),
                           [TrajectorySample(t.time, _vector(t.position)) for t in r.trajectory],
                           r.diverged, r.divergence, r.wall_seconds,
-                          [Frame(f.index, f.time, f.png) for f in r.frames])
+                          [Frame(f.index, f.time, f.png) for f in r.frames],
+                          r.mp4, r.mp4_frames, r.video_note)
 
     @staticmethod
     def _camera(camera: str, distance: Optional[float], elevation: Optional[float],

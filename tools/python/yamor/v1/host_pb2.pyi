@@ -159,40 +159,50 @@ class EvaluateRequest(_message.Message):
     def __init__(self, config_xml: _Optional[str] = ..., world: _Optional[str] = ..., morphology_xml: _Optional[str] = ..., parameters: _Optional[_Iterable[_Union[ParameterValue, _Mapping]]] = ..., warmup: _Optional[float] = ..., duration: _Optional[float] = ..., seed: _Optional[int] = ..., trajectory_period: _Optional[float] = ..., time_step: _Optional[float] = ..., motor_defects: _Optional[_Iterable[_Union[SetMotorDefectRequest, _Mapping]]] = ..., module_defects: _Optional[_Iterable[_Union[SetModuleDefectRequest, _Mapping]]] = ..., ground: _Optional[_Union[SetGroundRequest, _Mapping]] = ..., upside_down: bool = ..., frames: _Optional[_Union[EvaluationFrames, _Mapping]] = ...) -> None: ...
 
 class EvaluateResponse(_message.Message):
-    __slots__ = ["distance", "diverged", "divergence", "final_pose", "frames", "trajectory", "velocity", "wall_seconds"]
+    __slots__ = ["distance", "diverged", "divergence", "final_pose", "frames", "mp4", "mp4_frames", "trajectory", "velocity", "video_note", "wall_seconds"]
     DISTANCE_FIELD_NUMBER: _ClassVar[int]
     DIVERGED_FIELD_NUMBER: _ClassVar[int]
     DIVERGENCE_FIELD_NUMBER: _ClassVar[int]
     FINAL_POSE_FIELD_NUMBER: _ClassVar[int]
     FRAMES_FIELD_NUMBER: _ClassVar[int]
+    MP4_FIELD_NUMBER: _ClassVar[int]
+    MP4_FRAMES_FIELD_NUMBER: _ClassVar[int]
     TRAJECTORY_FIELD_NUMBER: _ClassVar[int]
     VELOCITY_FIELD_NUMBER: _ClassVar[int]
+    VIDEO_NOTE_FIELD_NUMBER: _ClassVar[int]
     WALL_SECONDS_FIELD_NUMBER: _ClassVar[int]
     distance: float
     diverged: bool
     divergence: str
     final_pose: Pose
     frames: _containers.RepeatedCompositeFieldContainer[VideoFrame]
+    mp4: bytes
+    mp4_frames: int
     trajectory: _containers.RepeatedCompositeFieldContainer[TrajectorySample]
     velocity: float
+    video_note: str
     wall_seconds: float
-    def __init__(self, velocity: _Optional[float] = ..., distance: _Optional[float] = ..., final_pose: _Optional[_Union[Pose, _Mapping]] = ..., trajectory: _Optional[_Iterable[_Union[TrajectorySample, _Mapping]]] = ..., diverged: bool = ..., divergence: _Optional[str] = ..., wall_seconds: _Optional[float] = ..., frames: _Optional[_Iterable[_Union[VideoFrame, _Mapping]]] = ...) -> None: ...
+    def __init__(self, velocity: _Optional[float] = ..., distance: _Optional[float] = ..., final_pose: _Optional[_Union[Pose, _Mapping]] = ..., trajectory: _Optional[_Iterable[_Union[TrajectorySample, _Mapping]]] = ..., diverged: bool = ..., divergence: _Optional[str] = ..., wall_seconds: _Optional[float] = ..., frames: _Optional[_Iterable[_Union[VideoFrame, _Mapping]]] = ..., mp4: _Optional[bytes] = ..., mp4_frames: _Optional[int] = ..., video_note: _Optional[str] = ...) -> None: ...
 
 class EvaluationFrames(_message.Message):
-    __slots__ = ["camera", "frame_rate", "height", "hide_labels", "hide_legend", "width"]
+    __slots__ = ["camera", "frame_rate", "height", "hide_labels", "hide_legend", "mp4", "png_frames", "width"]
     CAMERA_FIELD_NUMBER: _ClassVar[int]
     FRAME_RATE_FIELD_NUMBER: _ClassVar[int]
     HEIGHT_FIELD_NUMBER: _ClassVar[int]
     HIDE_LABELS_FIELD_NUMBER: _ClassVar[int]
     HIDE_LEGEND_FIELD_NUMBER: _ClassVar[int]
+    MP4_FIELD_NUMBER: _ClassVar[int]
+    PNG_FRAMES_FIELD_NUMBER: _ClassVar[int]
     WIDTH_FIELD_NUMBER: _ClassVar[int]
     camera: Camera
     frame_rate: float
     height: int
     hide_labels: bool
     hide_legend: bool
+    mp4: bool
+    png_frames: _containers.RepeatedScalarFieldContainer[int]
     width: int
-    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., hide_labels: bool = ..., hide_legend: bool = ..., frame_rate: _Optional[float] = ...) -> None: ...
+    def __init__(self, camera: _Optional[_Union[Camera, _Mapping]] = ..., width: _Optional[int] = ..., height: _Optional[int] = ..., hide_labels: bool = ..., hide_legend: bool = ..., frame_rate: _Optional[float] = ..., mp4: bool = ..., png_frames: _Optional[_Iterable[int]] = ...) -> None: ...
 
 class FlushResponse(_message.Message):
     __slots__ = ["frames_sent"]
