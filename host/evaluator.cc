@@ -8,7 +8,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -381,9 +380,14 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
   if (video) {
     const render::VideoResult made = video->Finish();  // UNAVAILABLE with ffmpeg's messages
     video.reset();
+    std::error_code size_error;
+    const auto size = std::filesystem::file_size(video_file->path(), size_error);
     std::ifstream in(video_file->path(), std::ios::binary);
-    result.mp4.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof()) {
+    if (size_error || !in) {
+      throw Error(StatusCode::kInternal, "cannot read the film's MP4 " + video_file->path());
+    }
+    result.mp4.resize(static_cast<std::size_t>(size));
+    if (!in.read(reinterpret_cast<char*>(result.mp4.data()), static_cast<std::streamsize>(size))) {
       throw Error(StatusCode::kInternal, "cannot read the film's MP4 " + video_file->path());
     }
     result.mp4_frames = static_cast<uint32_t>(made.frames);

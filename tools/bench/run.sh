@@ -7,7 +7,8 @@
 # Programs listed in `plain_programs` are not Google Benchmark binaries: each
 # runs once (it repeats internally) and its own table is printed after ours.
 # Last, tools/bench/physics_compare.py prints the simulation comparison with
-# MuJoCo (when the venv has mujoco).
+# MuJoCo (when the venv has mujoco), and tools/bench/film_bench.py the cost of
+# a filmed Evaluate through a real yamord (when ffmpeg is installed).
 set -euo pipefail
 plain_programs=" host_bench pool_bench serial_bench render_bench tracker_bench physics_accuracy "
 if [ $# -lt 1 ]; then echo "usage: $0 BUILD_DIR [extra benchmark flags]" >&2; exit 2; fi
@@ -104,4 +105,14 @@ if [ -x "$build/tools/mjcf/yamor-mjcf-export" ] && "$py" -c "import mujoco" 2>/d
     --markdown "$out_dir/physics_compare.md"
 else
   echo "bench: skipping physics_compare.py (needs $build/tools/mjcf/yamor-mjcf-export and mujoco)" >&2
+fi
+
+# Issue 14's end-to-end film cost (a real yamord: an MP4 made by the daemon,
+# PNG frames made into a video here) against the evaluation it shows.
+if command -v ffmpeg > /dev/null; then
+  echo
+  echo "bench: film_bench.py (a filmed Evaluate through a real yamord)" >&2
+  "$py" "$root/tools/bench/film_bench.py" --build "$build"
+else
+  echo "bench: skipping film_bench.py (needs ffmpeg)" >&2
 fi
