@@ -38,6 +38,22 @@ void WriteFile(const fs::path& path, std::span<const uint8_t> bytes) {
   if (!out) throw Error(StatusCode::kInternal, "cannot write " + path.string());
 }
 
+// `frames` side by side as `dir`/best-strip.png; a failure goes to out.strip_error.
+void WriteStrip(const std::vector<const FilmFrame*>& frames, const fs::path& dir, BestVideo& out) {
+  try {
+    std::vector<render::Image> images;
+    for (const FilmFrame* frame : frames) images.push_back(render::DecodePng(Bytes(frame->png)));
+    const render::Image strip = ComposeStrip(images);
+    const fs::path strip_path = dir / "best-strip.png";
+    WriteFile(strip_path, render::EncodePng(strip));
+    out.strip_path = strip_path.string();
+    out.strip_width = strip.width;
+    out.strip_height = strip.height;
+  } catch (const std::exception& e) {
+    out.strip_error = e.what();
+  }
+}
+
 }  // namespace
 
 double GaitPeriod(const cpg::RobotConfig& config) {
@@ -124,23 +140,14 @@ BestVideo WriteBestVideo(const std::vector<FilmFrame>& frames, double frame_rate
     fs::remove(video_path, ec);  // never leave a partial video behind
   }
 
-  try {
-    std::vector<double> times;
-    times.reserve(frames.size());
-    for (const FilmFrame& frame : frames) times.push_back(frame.time);
-    std::vector<render::Image> images;
-    for (std::size_t index : StripFrameIndices(times, gait_period)) {
-      images.push_back(render::DecodePng(Bytes(frames[index].png)));
-    }
-    const render::Image strip = ComposeStrip(images);
-    const fs::path strip_path = folder / "best-strip.png";
-    WriteFile(strip_path, render::EncodePng(strip));
-    out.strip_path = strip_path.string();
-    out.strip_width = strip.width;
-    out.strip_height = strip.height;
-  } catch (const std::exception& e) {
-    out.strip_error = e.what();
+  std::vector<double> times;
+  times.reserve(frames.size());
+  for (const FilmFrame& frame : frames) times.push_back(frame.time);
+  std::vector<const FilmFrame*> strip_frames;
+  for (std::size_t index : StripFrameIndices(times, gait_period)) {
+    strip_frames.push_back(&frames[index]);
   }
+  WriteStrip(strip_frames, folder, out);
   return out;
 }
 
@@ -168,18 +175,9 @@ BestVideo WriteBestVideo(const FilmResult& film, double frame_rate, double gait_
     std::error_code ec;
     fs::remove(folder / "best.mp4.partial", ec);
   }
-  try {
-    std::vector<render::Image> images;
-    for (const FilmFrame& frame : film.frames) images.push_back(render::DecodePng(Bytes(frame.png)));
-    const render::Image strip = ComposeStrip(images);
-    const fs::path strip_path = folder / "best-strip.png";
-    WriteFile(strip_path, render::EncodePng(strip));
-    out.strip_path = strip_path.string();
-    out.strip_width = strip.width;
-    out.strip_height = strip.height;
-  } catch (const std::exception& e) {
-    out.strip_error = e.what();
-  }
+  std::vector<const FilmFrame*> strip_frames;
+  for (const FilmFrame& frame : film.frames) strip_frames.push_back(&frame);
+  WriteStrip(strip_frames, folder, out);
   return out;
 }
 
