@@ -3,6 +3,8 @@
 // drains removed ones (their evaluations finish there, or are re-queued when
 // the host fails while draining), and HostListWatcher applies a host file's
 // changes. Every slot is filled once, by the candidate's own score.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -163,7 +165,9 @@ TEST(HostPoolMembershipTest, TheWatcherAppliesTheHostFileWhenItChanges) {
   FakeHost a, b;
   FakeServer server_a(&a), server_b(&b);
   const std::string path =
-      (std::filesystem::path(::testing::TempDir()) / "pool_watcher_hosts.txt").string();
+      (std::filesystem::path(::testing::TempDir()) /
+       ("pool_watcher_hosts_" + std::to_string(::getpid()) + ".txt"))
+          .string();
   const auto write = [&](const std::string& text) {
     const std::string temporary = path + ".tmp";
     std::ofstream(temporary) << text;
@@ -174,18 +178,18 @@ TEST(HostPoolMembershipTest, TheWatcherAppliesTheHostFileWhenItChanges) {
   HostListWatcher watcher(path, pool, 0.02);
   write("# two now\n" + server_a.address().ToString() + "\n" + server_b.address().ToString() +
         "\n");
+  // The watcher counts a list once SetHosts returned, which may be after the
+  // pool shows the change: wait for both.
   ASSERT_TRUE(WaitFor([&] {
     const auto s = StatusNamed(pool, server_b.address());
-    return s && s->up;
+    return s && s->up && watcher.Applied() == 1;
   }));
-  EXPECT_EQ(watcher.Applied(), 1);
   write("not a host\n");  // refused: the membership stays
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   EXPECT_EQ(watcher.Applied(), 1);
   EXPECT_EQ(pool.Status().size(), 2u);
   write(server_b.address().ToString() + "\n");
-  ASSERT_TRUE(WaitFor([&] { return pool.Status().size() == 1u; }));
-  EXPECT_EQ(watcher.Applied(), 2);
+  ASSERT_TRUE(WaitFor([&] { return pool.Status().size() == 1u && watcher.Applied() == 2; }));
   EXPECT_EQ(pool.Status()[0].address.ToString(), server_b.address().ToString());
   const std::vector<Candidate> batch = MakeCandidates(4);
   ExpectScored(batch, EvaluateGuarded(pool, batch));
