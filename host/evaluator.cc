@@ -311,10 +311,11 @@ EvaluationResult RunEvaluation(const EvaluationSpec& spec, const CancelCheck& ca
     if (video) {
       // Raw to ffmpeg; PNG only for the frames asked for.
       const FrameSpec& f = spec.film->frame;
-      renderer->RenderInto(robot.Scene(), f.camera, f.width, f.height, f.options, image);
+      const render::Scene scene = robot.Scene();
+      renderer->RenderInto(scene, f.camera, f.width, f.height, f.options, image);
       video->AddImage(image);
       if (!png_wanted.contains(index)) return;
-      frame = EncodedFrame{.time = robot.Scene().time, .png = render::EncodePng(image, /*fast=*/true)};
+      frame = EncodedFrame{.time = scene.time, .png = render::EncodePng(image, /*fast=*/true)};
     } else {
       frame = EncodeFrame(robot.Scene(), spec.film->frame, *renderer, /*fast=*/true);
     }
