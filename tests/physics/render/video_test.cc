@@ -3,6 +3,9 @@
 #include "physics/render/video.h"
 
 #include <gtest/gtest.h>
+#include <pthread.h>
+
+#include <csignal>
 
 #include <array>
 #include <cmath>
@@ -128,6 +131,34 @@ TEST_F(VideoTest, RawImagesMakeTheSameVideo) {
   EXPECT_EQ(Shell("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
                   "stream=nb_read_frames,width,height -of csv=p=0 " + path),
             "64,48,12\n");
+}
+
+// ffmpeg starts with no signal blocked and SIGPIPE not ignored, whatever the
+// caller's thread does (yamord blocks SIGINT and SIGTERM in every thread).
+TEST_F(VideoTest, FfmpegStartsWithNoSignalBlockedOrPipeSignalIgnored) {
+  // A stand-in for ffmpeg that writes its signal state to the output path.
+  const fs::path script = dir_ / "fake-ffmpeg.sh";
+  std::ofstream(script) << "#!/bin/sh\nfor last; do :; done\ncat > /dev/null\n"
+                           "grep -E '^Sig(Blk|Ign)' /proc/self/status > \"$last\"\n";
+  fs::permissions(script, fs::perms::owner_all);
+  sigset_t blocked, previous;
+  sigemptyset(&blocked);
+  sigaddset(&blocked, SIGINT);
+  sigaddset(&blocked, SIGTERM);
+  ASSERT_EQ(pthread_sigmask(SIG_BLOCK, &blocked, &previous), 0);
+  const fs::path out = dir_ / "signals.txt";
+  VideoWriter writer(out.string(), VideoOptions{.ffmpeg = script.string()});
+  writer.AddFrame(Frame(8, 6, 0));
+  const VideoResult result = writer.Finish();
+  pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+  ASSERT_TRUE(result.video) << result.note;
+  std::ifstream in(out);
+  const std::string state((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(state.find("SigBlk:\t0000000000000000"), std::string::npos) << state;
+  const auto ign = state.find("SigIgn:\t");
+  ASSERT_NE(ign, std::string::npos) << state;
+  const unsigned long long ignored = std::stoull(state.substr(ign + 8, 16), nullptr, 16);
+  EXPECT_EQ(ignored & (1ULL << (SIGPIPE - 1)), 0u) << "SIGPIPE ignored: " << state;
 }
 
 TEST_F(VideoTest, RawImagesWithoutFfmpegBecomeThePngSequence) {
