@@ -3,6 +3,7 @@
 // See `yamor-optimize --help` and docs/optimizers.md.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -193,8 +194,10 @@ std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig&
     // strip's frames, chosen here from the frame times the film will have.
     FilmOptions film_options = options;
     film_options.mp4 = true;
+    // As the daemon counts them; a film past its 100,000-frame cap is refused
+    // there, so no more times are needed here.
     const auto count = static_cast<std::size_t>(
-        std::max(1.0, std::round(seconds * options.frame_rate)));  // as the daemon counts them
+        std::clamp(std::round(seconds * options.frame_rate), 1.0, 100000.0));
     std::vector<double> times(count);
     for (std::size_t i = 0; i < count; ++i) times[i] = static_cast<double>(i) / options.frame_rate;
     for (const std::size_t index : StripFrameIndices(times, period)) {
