@@ -66,8 +66,11 @@ inline uint32_t Word(const uint8_t* p) {
 // chosen when the program loads: SSE2 has no 32-bit vector multiply (the
 // compiler builds each product from 16-bit ones), and the conversion cost
 // 0.26-0.31 ms a 320x240 frame against 0.06-0.09 ms with AVX2 (docs/benchmarks.md, "Rendering", third
-// round). Integer arithmetic: both give the same bytes.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// round). Integer arithmetic: both give the same bytes. Not under
+// ThreadSanitizer: the clone's resolver runs while the dynamic loader relocates
+// the program, before TSan's runtime is set up, and its instrumented code
+// crashed every binary that links yamor_render at start.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_THREAD__)
 #define YAMOR_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
 #else
 #define YAMOR_VECTOR_CLONES
