@@ -30,6 +30,19 @@ LISTENING = re.compile(r"^yamord: listening on (\S+):(\d+)$")
 START_TIMEOUT = 60.0
 
 
+def load_tool(path: Path):
+    """A tools/ script imported as a module (with tools/reproduce on the path, as it runs)."""
+    import importlib.util
+
+    sys.path.insert(0, str(path.parent))
+    sys.path.insert(0, str(REPO / "tools" / "reproduce"))
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
 def _read_line(stream, timeout: float) -> str:
     """One line of `stream`, or "" at EOF / after `timeout` seconds."""
     ready, _, _ = select.select([stream], [], [], timeout)

@@ -12,7 +12,6 @@ $YAMOR_BUILD, else the one $YAMORD lives in (build/release).
 from __future__ import annotations
 
 import csv
-import importlib.util
 import os
 import subprocess
 import sys
@@ -20,20 +19,14 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, YAMORD
+from conftest import REPO, YAMORD, load_tool
 
 BUILD = Path(os.environ.get("YAMOR_BUILD", YAMORD.parent.parent))
 BENCH = REPO / "tools" / "bench" / "lifelong_bench.py"
 
 
 def load_bench():
-    sys.path.insert(0, str(BENCH.parent))
-    sys.path.insert(0, str(REPO / "tools" / "reproduce"))
-    spec = importlib.util.spec_from_file_location("lifelong_bench", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_tool(BENCH)
 
 
 def test_parse_args_defaults_quick_and_bad_values(capsys):
