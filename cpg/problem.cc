@@ -57,6 +57,8 @@ std::vector<TiedParameter> ModuleTieRules(const AmplitudeClasses& amplitudes, co
 
 }  // namespace
 
+// The rules of docs/cpg_build.md in order; cpg/problem_steps.h says which
+// function and file implements each.
 GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* base,
                                  const ProblemOptions& options) {
   if (options.max_free < 1) {
@@ -108,10 +110,11 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
   // §6: the warm-started robot.
   out.robot = WarmStartProblem(graph, net, from, driven, ties, options);
 
-  // §4: the budget rule over one candidate per class.
+  // §4: the budget rule (cpg/problem_budget.cc) over one candidate per class.
+  Candidates candidates = MakeCandidates(ties, sol, net.edges, out.robot);
   BudgetState budget{.budget = static_cast<size_t>(options.max_free),
-                     .free = MakeCandidates(ties, sol, net.edges, out.robot),
-                     .amplitude_classes = std::move(ties.amplitudes)};
+                     .free = std::move(candidates),
+                     .amplitude_classes = ties.amplitudes};
   ApplyBudgetRule(budget, out.robot, options.seed);
   for (std::string& n : budget.notes) out.notes.push_back(std::move(n));
 
