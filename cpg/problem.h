@@ -4,7 +4,8 @@
 // tree and its fundamental cycles (polynomial, not the thesis's loop
 // enumeration); parameters are tied across the robot's symmetries
 // (symmetry.h) instead of fixed at random; a documented, seeded rule fixes
-// what is still above the budget. docs/cpg_build.md explains every rule.
+// what is still above the budget. docs/cpg_build.md explains every rule;
+// cpg/problem_steps.h lists the steps that implement them, one per rule.
 #pragma once
 
 #include <cstdint>
@@ -14,6 +15,7 @@
 
 #include "cpg/module_graph.h"
 #include "cpg/network_builder.h"
+#include "cpg/phase_system.h"
 #include "cpg/robot_config.h"
 #include "cpg/symmetry.h"
 
@@ -45,12 +47,6 @@ struct FreeParameter {
   double min = 0;     ///< Lower bound.
   double max = 0;     ///< Upper bound.
   std::string note;   ///< What it stands for ("amplitude of modules 0 1 2 3").
-};
-
-/// A parameter computed from others: an optimization config `<constrain>`.
-struct TiedParameter {
-  std::string param;  ///< e.g. "phase.3.0".
-  std::string expr;   ///< muParser expression, e.g. "M2Pi(phase.0.1() + phase.1.2())".
 };
 
 /// A parameter the budget rule took out of the free set.
@@ -97,19 +93,5 @@ GeneratedProblem GenerateProblem(const ModuleGraph& graph, const RobotConfig* ba
 /// ones take a neighbour's value or the defaults. Deterministic.
 RobotConfig WarmStart(const ModuleGraph& graph, const CpgNetwork& network, const RobotConfig& base,
                       const ProblemOptions& options = {});
-
-/// The phase part on its own: for the undirected couplings `edges` (u < v)
-/// among `vertices`, the free phases and the rules that make every loop sum
-/// to a multiple of 2π, with no symmetry ties. Keep-free edges stay free.
-/// Used by GenerateProblem and by tests.
-struct PhaseSystem {
-  std::vector<std::string> free;      ///< "phase.u.v" of the free couplings.
-  std::vector<TiedParameter> tied;    ///< Rules for every other directed coupling.
-  std::vector<std::string> loops;     ///< Fundamental cycles.
-};
-/// Builds the phase system. Errors as GenerateProblem's for keep-free edges.
-PhaseSystem BuildPhaseSystem(const std::vector<ModuleId>& vertices,
-                             const std::vector<NetworkEdge>& edges,
-                             const std::vector<std::pair<ModuleId, ModuleId>>& keep_free = {});
 
 }  // namespace yamor::cpg
