@@ -35,7 +35,6 @@ import json
 import os
 import random
 import re
-import select
 import shutil
 import signal
 import statistics
@@ -49,11 +48,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
+from yamor import launcher
+from yamor.launcher import describe_exit
+
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
-sys.path.insert(0, str(REPO / "tools" / "python"))
 
-LISTENING = re.compile(r"^yamord: listening on (\S+):(\d+)$")
 SANITIZER = re.compile(r"ERROR: (AddressSanitizer|LeakSanitizer|MemorySanitizer)|"
                        r"WARNING: ThreadSanitizer|runtime error:|"
                        r"SUMMARY: (AddressSanitizer|UndefinedBehaviorSanitizer|ThreadSanitizer)")
@@ -106,48 +106,27 @@ def vm_rss_kb(pid: int) -> Optional[int]:
     return None
 
 
-def describe_exit(code: int) -> str:
-    if code < 0:
-        return f"killed by {signal.Signals(-code).name}"
-    return f"exit status {code}"
-
-
 # ---- the daemon -----------------------------------------------------------------------
 
-class Daemon:
-    """yamord started on 127.0.0.1:0, stderr to a file."""
+class Daemon(launcher.Daemon):
+    """yamord started by yamor.launcher on 127.0.0.1:0, stderr to a file scanned for sanitizer reports."""
 
     def __init__(self, binary: Path, workdir: Path, extra: Sequence[str]) -> None:
-        self.log = workdir / "yamord.stderr"
-        self._scanned = 0
         env = dict(os.environ)
         for key, value in DEFAULT_ENV.items():
             env.setdefault(key, value)
         self.env_used = {k: env[k] for k in DEFAULT_ENV}
-        self.command = [str(binary), "--listen", "127.0.0.1:0", *extra]
-        with open(self.log, "w") as stderr:
-            self.proc = subprocess.Popen(self.command, stdout=subprocess.PIPE, stderr=stderr,
-                                         text=True, cwd=REPO, env=env)
-        ready, _, _ = select.select([self.proc.stdout], [], [], 180.0)
-        line = self.proc.stdout.readline().strip() if ready else ""
-        match = LISTENING.match(line)
-        if not match:
-            self.kill()
-            raise SoakFailure(f"yamord did not report its port (got {line!r}):\n{self.tail()}")
-        self.address = f"{match.group(1)}:{match.group(2)}"
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid
-
-    def tail(self, lines: int = 40) -> str:
+        self._scanned = 0
+        super().__init__(binary, extra, log=workdir / "yamord.stderr", env=env, check=False)
+        deadline = time.monotonic() + 180.0
         try:
-            return "\n".join(self.log.read_text(errors="replace").splitlines()[-lines:])
-        except FileNotFoundError:
-            return ""
+            self.wait_started(deadline)
+            self.wait_healthy(deadline)
+        except launcher.LaunchError as e:
+            raise SoakFailure(str(e)) from None
 
     def stderr_text(self) -> str:
-        return self.log.read_text(errors="replace")
+        return self.log_text()
 
     def new_reports(self) -> List[str]:
         """Sanitizer report lines written to stderr since the last call."""
@@ -158,11 +137,6 @@ class Daemon:
         cut = chunk.rfind(b"\n") + 1
         self._scanned += cut
         return sanitizer_reports(chunk[:cut].decode(errors="replace"))
-
-    def kill(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait()
 
 
 # ---- client processes -----------------------------------------------------------------
@@ -403,12 +377,13 @@ def run(args: argparse.Namespace, workdir: Path) -> dict:
         final_health(daemon.address)
         warm, last, growth = rss_growth(samples, args.warmup, end, args.rss_window)
         peak = max(kb for _, kb in samples)
-        daemon.proc.send_signal(signal.SIGTERM)
+        daemon.send_signal(signal.SIGTERM)
         try:
-            exit_code = daemon.proc.wait(timeout=120)
+            daemon.proc.wait(timeout=120)
         except subprocess.TimeoutExpired:
             daemon.kill()
             raise SoakFailure("yamord did not exit within 120 s of SIGTERM")
+        exit_code = daemon.stop(check=False)
         reports = sanitizer_reports(daemon.stderr_text())
         if reports:
             raise SoakFailure("sanitizer report in yamord's stderr:\n" + "\n".join(reports))
