@@ -11,7 +11,6 @@ from __future__ import annotations
 import os
 import select
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -30,19 +29,6 @@ YAMORD = Path(os.environ.get("YAMORD", REPO / "build" / "release" / "host" / "ya
 YAMORCTL = Path(os.environ.get("YAMORCTL",
                                REPO / "build" / "release" / "tools" / "yamorctl" / "yamorctl"))
 START_TIMEOUT = 60.0
-
-
-def load_tool(path: Path):
-    """A tools/ script imported as a module (with tools/reproduce on the path, as it runs)."""
-    import importlib.util
-
-    sys.path.insert(0, str(path.parent))
-    sys.path.insert(0, str(REPO / "tools" / "reproduce"))
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def _read_line(stream, timeout: float) -> str:

@@ -15,7 +15,6 @@ import json
 import os
 import re
 import shutil
-import signal
 import struct
 import subprocess
 from pathlib import Path

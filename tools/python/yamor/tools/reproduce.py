@@ -1,8 +1,7 @@
-#!/usr/bin/env python3
 """Reproduces the thesis's chapter 4, 6 and 7 figures (yamor-characterize, yamor-optimize, yamor-lifelong).
 
-Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,fig7-5,all} [--out results/reproduce]
-                    [--build build/release] [--quick] [--hosts H:P,...] [--daemons N]
+Usage: yamor-reproduce {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,fig7-5,all} [--out results/reproduce]
+                       [--build build/release] [--quick] [--hosts H:P,...] [--daemons N]
 
   fig6-3    the 64x64 landscape of the quadruped's velocity over the hip->knee
             phase lag x the knee offset, the five other Table 6.1 parameters at
@@ -25,7 +24,7 @@ Usage: reproduce.py {ch4,fig6-3,fig6-5-7,fig6-12,fig7-4,fig7-5,all} [--out resul
             trajectory and its CSV
   ch4       chapter 4 in simulation (no daemons): Table 4.1 and Figures B.1-B.19
             from yamor-characterize noise and moves (seed --eval-seed), drawn by
-            tools/characterize/plot_characterize.py (not with --quick)
+            yamor-plot-characterize (not with --quick)
 
 Every command writes its PNG and CSV under OUT/<figure>/ (see
 tools/reproduce/README.md). Unless --hosts names running daemons, it starts
@@ -48,12 +47,9 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parents[1] / "tools" / "plot"))
-
-import daemons  # noqa: E402
-from daemons import REPO, DaemonPool, ToolError  # noqa: E402
+from yamor.checkout import REPO
+from yamor.tools import daemons
+from yamor.tools.daemons import DaemonPool, ToolError
 
 CONFIG_2 = REPO / "configs" / "optimize" / "quadruped-2.xml"
 CONFIG_7 = REPO / "configs" / "optimize" / "quadruped-7.xml"
@@ -132,7 +128,7 @@ def write_csv(path: Path, header: list[str], rows) -> int:
 
 
 def plot_landscape_module():
-    import plot_landscape  # tools/plot, on sys.path above
+    from yamor.tools import plot_landscape  # matplotlib: imported only to draw
 
     return plot_landscape
 
@@ -427,8 +423,7 @@ def ch4(args, out: Path) -> Path:
         if not args.quiet:
             print(result.stdout, end="", flush=True)
     if not args.quick:
-        sys.path.insert(0, str(REPO / "tools" / "characterize"))
-        import plot_characterize  # noqa: E402
+        from yamor.tools import plot_characterize
 
         if plot_characterize.main([str(folder)]) != 0:
             raise ToolError(f"plot_characterize.py could not draw {folder}")
@@ -523,8 +518,7 @@ def relearned_gait(db: Path) -> tuple[int, str]:
 
 def film_recovery(host: str, seed: int, gait_xml: str, folder: Path, quick: bool) -> list[dict]:
     """Replays the fall and the recovery on `host` for the camera; returns the frames shot."""
-    sys.path.insert(0, str(REPO / "tools" / "python"))
-    import yamor  # noqa: E402
+    import yamor
 
     step = 0.5
     walk_after_landing = 12.0 if quick else 40.0
@@ -723,5 +717,10 @@ def main(argv=None) -> int:
     return 0
 
 
+def cli() -> int:
+    """The yamor-reproduce command: main() with errors and Ctrl-C mapped to exit statuses."""
+    return daemons.main_guard(main)
+
+
 if __name__ == "__main__":
-    sys.exit(daemons.main_guard(main))
+    sys.exit(cli())

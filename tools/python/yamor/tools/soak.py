@@ -1,11 +1,10 @@
-#!/usr/bin/env python3
 """Bounded soak of one yamord: many clients, mixed calls, killed clients, RSS watched.
 
-    tools/soak/soak.py --yamord build/asan/host/yamord --duration 600
+    yamor-soak --yamord build/asan/host/yamord --duration 600
     make soak SOAK_TIME=600          # the same, building the asan yamord first
 
 Starts YAMORD on an ephemeral loopback port and hammers it for --duration
-seconds with --clients concurrent clients (--processes soak_client.py
+seconds with --clients concurrent clients (--processes yamor.tools.soak_client
 processes of clients/processes threads each): valid and invalid calls of
 every RPC, Evaluate batches, WatchState and RecordFrames streams opened and
 dropped. Every --kill-every seconds one client process is SIGKILLed (one
@@ -49,10 +48,9 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 from yamor import launcher
+from yamor.checkout import REPO
 from yamor.launcher import describe_exit
 
-HERE = Path(__file__).resolve().parent
-REPO = HERE.parents[1]
 
 SANITIZER = re.compile(r"ERROR: (AddressSanitizer|LeakSanitizer|MemorySanitizer)|"
                        r"WARNING: ThreadSanitizer|runtime error:|"
@@ -197,7 +195,7 @@ class Clients:
         stderr_path = self.workdir / f"client-{self.next_seed}.stderr"
         with open(stderr_path, "w") as stderr:
             proc = subprocess.Popen(
-                [sys.executable, str(HERE / "soak_client.py"), self.address,
+                [sys.executable, "-m", "yamor.tools.soak_client", self.address,
                  "--threads", str(self.threads), "--seed", str(self.next_seed)],
                 stdout=subprocess.PIPE, stderr=stderr, text=True, cwd=REPO)
         worker = Worker(proc, self.next_seed, stderr_path)

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Plots an optimization run: the velocity of every evaluation and the best so far.
 
-Usage: plot_progress.py EVALUATIONS_CSV PNG [--title TITLE]
+Usage: yamor-plot-progress EVALUATIONS_CSV PNG [--title TITLE]
 
 EVALUATIONS_CSV is yamor-optimize's evaluations.csv: a header
 `index,<parameter>...,velocity,distance,diverged,host,wall_seconds` and one
@@ -63,7 +62,7 @@ def plot(indices, velocities, diverged, png, title):
     plt.close(fig)
 
 
-def main(argv):
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("csv")
     parser.add_argument("png")

@@ -1,10 +1,9 @@
-#!/usr/bin/env python3
 """Lifelong-learning benchmark (issue 13 §5): yamor-lifelong on the scenarios of configs/lifelong.
 
-Usage: lifelong_bench.py [--parts transform,latency,recall,false-alarm] [--seeds 5 | --seed-list 4,5]
-                         [--daemons N] [--out results/lifelong-bench] [--build build/release]
-                         [--online-budget 45] [--model-budget 250] [--offline-budget 1000]
-                         [--false-alarm-time 1800] [--quick]
+Usage: yamor-lifelong-bench [--parts transform,latency,recall,false-alarm] [--seeds 5 | --seed-list 4,5]
+                            [--daemons N] [--out results/lifelong-bench] [--build build/release]
+                            [--online-budget 45] [--model-budget 250] [--offline-budget 1000]
+                            [--false-alarm-time 1800] [--quick]
 
 Parts (each reports trials, robot time and wall time separately, medians over the seeds):
 
@@ -50,11 +49,9 @@ import sys
 import time
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "reproduce"))
-
-import daemons  # noqa: E402
-from daemons import REPO, ToolError  # noqa: E402
+from yamor.checkout import REPO
+from yamor.tools import daemons
+from yamor.tools.daemons import ToolError
 
 SCENARIOS = REPO / "configs" / "lifelong"
 SCRIPT = REPO / "configs" / "scripts" / "quadruped-transform.xml"
@@ -459,5 +456,10 @@ def main(argv=None) -> int:
     return 0
 
 
+def cli() -> int:
+    """The yamor-lifelong-bench command: main() with errors and Ctrl-C mapped to exit statuses."""
+    return daemons.main_guard(main)
+
+
 if __name__ == "__main__":
-    sys.exit(daemons.main_guard(main))
+    sys.exit(cli())

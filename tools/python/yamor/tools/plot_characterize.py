@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Draws thesis appendix B's figures from yamor-characterize's CSV files.
 
-Usage: plot_characterize.py DIR [--out FIGDIR]
+Usage: yamor-plot-characterize DIR [--out FIGDIR]
 
   DIR/noise.csv, DIR/histogram.csv   -> figB-1.png (noise signal), figB-2..4.png (histograms)
   DIR/<move>.csv for each move       -> figB-<n>.png accelerations, velocities, positions

@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Runs a YaMoR robot exported by yamor-mjcf-export in MuJoCo, open loop.
 
-Usage: mujoco_eval.py --model ROBOT.mjcf.xml --setpoints ROBOT.setpoints.csv
-                      [--repeats 5] [--warmup 8] [--skip 0] [--method rollout|loop]
-                      [--json OUT]
+Usage: yamor-mujoco-eval --model ROBOT.mjcf.xml --setpoints ROBOT.setpoints.csv
+                         [--repeats 5] [--warmup 8] [--skip 0] [--method rollout|loop]
+                         [--json OUT]
 
 The set-point CSV is what `physics_bench --export=ROBOT` writes: a header
 `step,<id>,<id>,...` and, for each step k = 1..N, the servo set-point (rad) the

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Plots a yamor-lifelong run like thesis Figure 7.4: velocity over time, events marked.
 
-Usage: plot_timeline.py TIMELINE_CSV PNG [--title TITLE]
+Usage: yamor-plot-timeline TIMELINE_CSV PNG [--title TITLE]
 
 TIMELINE_CSV is yamor-lifelong's timeline.csv: a header
 `time,velocity,ema,state,event,gait` and one row per measurement window or
@@ -107,7 +106,7 @@ def plot(rows, png, title):
     plt.close(fig)
 
 
-def main(argv):
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("csv")
     parser.add_argument("png")

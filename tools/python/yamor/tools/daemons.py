@@ -1,6 +1,6 @@
 """A pool of yamord daemons (started here or already running) and yamor-optimize runs that stop cleanly.
 
-Shared by tools/reproduce/reproduce.py and the benchmarks in tools/bench.
+Shared by yamor.tools.reproduce and the benchmarks (yamor.tools.*_bench).
 
     with DaemonPool.start(yamord, count=2, log_dir=out) as pool:
         run_optimize(optimize, [..., "--hosts", pool.hosts_arg()])
@@ -24,9 +24,9 @@ import sys
 from pathlib import Path
 from typing import Optional
 
+from yamor.checkout import REPO
 from yamor.launcher import Daemons, LaunchError, die_with_parent, start_daemons
 
-REPO = Path(__file__).resolve().parents[2]
 START_TIMEOUT = 60.0
 # yamor-optimize writes its summary after SIGINT; give it this long.
 OPTIMIZE_STOP_TIMEOUT = 60.0
@@ -185,7 +185,7 @@ def default_daemons() -> int:
 
 
 def main_guard(main) -> int:
-    """Calls main(); maps ToolError to exit 1 and Ctrl-C/SIGTERM to 130 with a message."""
+    """Calls main(); maps ToolError and LaunchError to exit 1 and Ctrl-C/SIGTERM to 130 with a message."""
     # A background job of a non-interactive shell (`tool &` in a script or CI)
     # starts with SIGINT ignored, and Python keeps an inherited SIG_IGN; then
     # `kill -INT` did nothing and the daemons and yamor-optimize ran on.
@@ -193,7 +193,7 @@ def main_guard(main) -> int:
     sigterm_raises_interrupt()
     try:
         return main()
-    except ToolError as error:
+    except (ToolError, LaunchError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

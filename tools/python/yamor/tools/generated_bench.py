@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Generated-problem benchmark: learning on yamor-cpg-build's problems (issue 12 section 8).
 
-Usage: generated_bench.py [--seeds 3] [--robot-seeds 3] [--budget 300] [--robots NAME,...]
-                          [--quick] [--hosts H:P,...] [--daemons N] [--out results/generated-bench]
-                          [--warmup 8] [--duration 12] [--timing-runs 5] [--build build/release]
+Usage: yamor-generated-bench [--seeds 3] [--robot-seeds 3] [--budget 300] [--robots NAME,...]
+                             [--quick] [--hosts H:P,...] [--daemons N] [--out results/generated-bench]
+                             [--warmup 8] [--duration 12] [--timing-runs 5] [--build build/release]
 
 Learning runs use the learning benchmark's best variant (docs/benchmarks.md,
 "Learning (issue 6)": powell-brent-stadium, `powell line_search=brent
@@ -64,13 +63,10 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
-sys.path.insert(0, str(HERE.parent / "reproduce"))
-
-import daemons  # noqa: E402
-import learning_bench as lb  # noqa: E402
-from daemons import REPO, ToolError  # noqa: E402
+from yamor.checkout import REPO
+from yamor.tools import daemons
+from yamor.tools import learning_bench as lb
+from yamor.tools.daemons import ToolError
 
 VARIANT = lb.BY_NAME["powell-brent-stadium"]  # the learning benchmark's best (docs/benchmarks.md)
 HAND_MADE = REPO / "configs" / "optimize" / "quadruped-7.xml"
@@ -644,5 +640,10 @@ def main(argv=None) -> int:
     return 1 if failed and len(failed) == len(quad_problems + robot_problems) else 0
 
 
+def cli() -> int:
+    """The yamor-generated-bench command: main() with errors and Ctrl-C mapped to exit statuses."""
+    return daemons.main_guard(main)
+
+
 if __name__ == "__main__":
-    sys.exit(daemons.main_guard(main))
+    sys.exit(cli())

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Plots the servo set-points written by yamor-cpg-run.
 
-Usage: plot_setpoints.py CSV PNG [--title TITLE]
+Usage: yamor-plot-setpoints CSV PNG [--title TITLE]
 
 The CSV has a header `time,<id>,<id>,...` and one row per sample; an empty
 cell means the module's CPG was disabled at that time (drawn as a gap).

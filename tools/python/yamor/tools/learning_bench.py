@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Learning benchmark: every optimizer plugin (and Powell variant) on the quadruped's seven parameters.
 
-Usage: learning_bench.py [--seeds 5] [--budget 1000] [--plugins NAME,...] [--quick]
-                         [--hosts H:P,...] [--daemons N] [--out results/learning-bench]
-                         [--warmup 8] [--duration 12] [--build build/release]
+Usage: yamor-learning-bench [--seeds 5] [--budget 1000] [--plugins NAME,...] [--quick]
+                            [--hosts H:P,...] [--daemons N] [--out results/learning-bench]
+                            [--warmup 8] [--duration 12] [--build build/release]
 
 For each variant and seed it runs yamor-optimize on
 configs/optimize/quadruped-7.xml (thesis Table 6.1) with `max_evaluations` =
@@ -39,11 +38,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "reproduce"))
-
-import daemons  # noqa: E402
-from daemons import REPO, ToolError  # noqa: E402
+from yamor.checkout import REPO
+from yamor.tools import daemons
+from yamor.tools.daemons import ToolError
 
 CONFIG = REPO / "configs" / "optimize" / "quadruped-7.xml"
 GRID_REASON = ("grid: not an optimizer for 7 parameters (3 points per axis = 3^7 = 2187 "
@@ -300,5 +297,10 @@ def main(argv=None) -> int:
     return 0
 
 
+def cli() -> int:
+    """The yamor-learning-bench command: main() with errors and Ctrl-C mapped to exit statuses."""
+    return daemons.main_guard(main)
+
+
 if __name__ == "__main__":
-    sys.exit(daemons.main_guard(main))
+    sys.exit(cli())

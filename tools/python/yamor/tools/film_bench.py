@@ -1,8 +1,7 @@
-#!/usr/bin/env python3
 """Film benchmark: the CPU of a filmed Evaluate against the evaluation it shows (issue 14).
 
-Usage: film_bench.py [--runs 7] [--seconds 20] [--fps 25] [--size 320x240]
-                     [--build build/release]
+Usage: yamor-film-bench [--runs 7] [--seconds 20] [--fps 25] [--size 320x240]
+                        [--build build/release]
 
 Where render_bench times the pieces in one process, this times what a user
 gets, end to end, through a real yamord (one Evaluate worker) on a loopback
@@ -37,12 +36,9 @@ import tempfile
 import time
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "reproduce"))
-sys.path.insert(0, str(HERE.parent / "python"))
-
-import daemons  # noqa: E402
-from daemons import REPO, ToolError  # noqa: E402
+from yamor.launcher import start_daemon
+from yamor.tools import daemons
+from yamor.tools.daemons import ToolError
 
 
 
@@ -114,9 +110,10 @@ def main(argv: list[str] | None = None) -> int:
     film = dict(frame_rate=args.fps, width=args.width, height=args.height)
     rows = {name: [] for name in ("plain", "mp4", "mp4_client", "png", "png_ffmpeg", "png_client")}
     with tempfile.TemporaryDirectory(prefix="film-bench-") as tmp, \
-            daemons.DaemonPool.start(bins["yamord"], 1, Path(tmp), quiet=True) as pool:
-        pid = pool._procs[0].pid
-        with yamor.Host(pool.hosts[0], timeout=600) as host:
+            start_daemon(bins["yamord"], ["--workers", "1", "--log-level", "warn"],
+                         log=Path(tmp) / "yamord.log") as daemon:
+        pid = daemon.pid
+        with yamor.Host(daemon.address, timeout=600) as host:
             host.evaluate(seed=1, warmup=0.1, duration=0.1, frame_rate=args.fps,
                           width=args.width, height=args.height)  # renderer, shaders: warm
             for run in range(args.runs):
@@ -168,5 +165,10 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def cli() -> int:
+    """The yamor-film-bench command: main() with errors and Ctrl-C mapped to exit statuses."""
+    return daemons.main_guard(main)
+
+
 if __name__ == "__main__":
-    sys.exit(daemons.main_guard(main))
+    sys.exit(cli())

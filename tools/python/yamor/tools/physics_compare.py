@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """Issue 3's simulation benchmark in one run: yamor vs naive ODE vs MuJoCo.
 
-Usage: physics_compare.py BUILD_DIR [--step S] [--repeats 5] [--sweep S1,S2,...]
-                          [--sweep-gaits K] [--snakes 8,16,32,64] [--markdown OUT]
-                          [--iterations N] [--sor W]
+Usage: yamor-physics-compare BUILD_DIR [--step S] [--repeats 5] [--sweep S1,S2,...]
+                             [--sweep-gaits K] [--snakes 8,16,32,64] [--markdown OUT]
+                             [--iterations N] [--sor W]
 
 Needs a build with -DYAMOR_BUILD_BENCH=ON (BUILD_DIR/tools/bench/physics_bench
 and BUILD_DIR/tools/mjcf/yamor-mjcf-export) and `mujoco` in the venv
@@ -14,7 +13,7 @@ and BUILD_DIR/tools/mjcf/yamor-mjcf-export) and `mujoco` in the venv
    world, snake steps/s for ours and naive, and the step-size sweep;
 2. exports the same robots with yamor-mjcf-export at the same step, has
    physics_bench write the set-points its CPG feeds the servos at that step,
-   and runs tools/mjcf/mujoco_eval.py on them (--repeats repeats, medians);
+   and runs yamor-mujoco-eval on them (--repeats repeats, medians);
 3. prints one set of tables (and writes them as Markdown with --markdown):
    wall and CPU time per evaluation, steps/s, distance, ratios against our
    world measured in the same run, and the accuracy of each step against the
@@ -33,7 +32,10 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
+from yamor.checkout import REPO
+
+# Run by path in the interpreter that has mujoco (it imports nothing of yamor).
+MUJOCO_EVAL = Path(__file__).resolve().with_name("mujoco_eval.py")
 
 
 def fmt_steps(h):
@@ -74,7 +76,7 @@ def mujoco_run(args, tmp, robot, h, repeats, duration=None, skip=0.0, warmup=8.0
          "--time-step", repr(h), "--log-level", "warn"]
         + (["--unpowered", unpowered] if unpowered else []))
     out = tmp / f"{tag}.mujoco.json"
-    run([args.python, ROOT / "tools/mjcf/mujoco_eval.py", "--model", model,
+    run([args.python, MUJOCO_EVAL, "--model", model,
          "--setpoints", tmp / f"{robot}.setpoints.csv", "--repeats", str(repeats),
          "--skip", str(skip), "--warmup", str(warmup), "--json", out])
     with open(out) as f:
@@ -111,7 +113,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     args.bench = args.build_dir / "tools/bench/physics_bench"
     args.exporter = args.build_dir / "tools/mjcf/yamor-mjcf-export"
-    venv_python = ROOT / ".venv/bin/python"
+    venv_python = REPO / ".venv/bin/python"
     args.python = venv_python if venv_python.exists() else Path(sys.executable)
     for binary in (args.bench, args.exporter):
         if not binary.exists():

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """Draws a two-parameter landscape written by the grid plugin as a heatmap.
 
-Usage: plot_landscape.py LANDSCAPE_CSV PNG [--path EVALUATIONS_CSV] [--title TITLE]
+Usage: yamor-plot-landscape LANDSCAPE_CSV PNG [--path EVALUATIONS_CSV] [--title TITLE]
                          [--label LABEL]
 
 The landscape CSV (the grid plugin's `landscape_csv`) has a header
