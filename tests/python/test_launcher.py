@@ -54,9 +54,9 @@ def test_two_daemons_serve_on_their_own_ports_and_exit_zero(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["yamord1.log", "yamord2.log"]
 
 
-def test_a_daemon_that_cannot_start_names_its_error_and_is_reaped():
+def test_a_daemon_that_cannot_start_names_its_error_and_is_reaped(tmp_path):
     with pytest.raises(LaunchError, match="did not report its port(.|\n)*--no-such-option"):
-        start_daemon(YAMORD, ["--no-such-option"])
+        start_daemon(YAMORD, ["--no-such-option"], log=tmp_path / "yamord.log")
 
 
 def test_a_missing_binary_is_named(tmp_path):
@@ -82,17 +82,17 @@ def test_an_exception_in_the_block_stops_the_daemons_and_is_not_masked(tmp_path)
 
 
 @pytest.mark.parametrize("ending", ["exit without stopping", "ctrl-c", "sigkill"])
-def test_no_daemon_outlives_its_parent(ending):
+def test_no_daemon_outlives_its_parent(ending, tmp_path):
     proc = child("""
         import sys, time
         from yamor.launcher import start_daemons
-        daemons = start_daemons(2, sys.argv[1])
+        daemons = start_daemons(2, sys.argv[1], log_dir=sys.argv[3])
         print(" ".join(str(d.pid) for d in daemons), flush=True)
         if sys.argv[2] == "exit without stopping":
             sys.exit(0)
         with daemons:
             time.sleep(600)
-    """, ending)
+    """, ending, str(tmp_path))
     try:
         pids = [int(p) for p in proc.stdout.readline().split()]
         assert len(pids) == 2, proc.stderr.read()
