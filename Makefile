@@ -61,11 +61,11 @@ fuzz: fuzz-build
 	@tools/fuzz/run.sh build/fuzz $(FUZZ_TIME)
 
 # The daemon soak (issue 17): one asan yamord, 64 clients, SOAK_TIME seconds
-# (tools/soak/soak.py --help; SOAK_ARGS adds options). Builds only yamord.
+# (.venv/bin/yamor-soak --help; SOAK_ARGS adds options). Builds only yamord.
 soak: deps
 	@cmake --preset asan >/dev/null
 	@cmake --build --preset asan -j $(JOBS) --target yamord
-	@$(PY) tools/soak/soak.py --yamord build/asan/host/yamord --duration $(SOAK_TIME) $(SOAK_ARGS)
+	@$(PY) -m yamor.tools.soak --yamord build/asan/host/yamord --duration $(SOAK_TIME) $(SOAK_ARGS)
 
 bench: build
 	@tools/bench/run.sh $(BUILD_DIR)

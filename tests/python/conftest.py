@@ -9,42 +9,30 @@ are skipped, with the path in the reason, only when it does not exist.
 from __future__ import annotations
 
 import os
-import re
 import select
-import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+import yamor
+from yamor.launcher import start_daemon
+
 REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "tools" / "python"))  # the package, even when not installed
-
-import yamor  # noqa: E402
-
+# The package under test is this checkout's (`make deps` installs it editable
+# into .venv; another worktree sets PYTHONPATH=tools/python), also in the
+# tools the tests start as subprocesses.
+if not Path(yamor.__file__).resolve().is_relative_to(REPO / "tools" / "python"):
+    raise ImportError(f"yamor is imported from {yamor.__file__}, not from {REPO / 'tools' / 'python'}: "
+                      "run `make deps`, or set PYTHONPATH=tools/python")
 YAMORD = Path(os.environ.get("YAMORD", REPO / "build" / "release" / "host" / "yamord"))
 YAMORCTL = Path(os.environ.get("YAMORCTL",
                                REPO / "build" / "release" / "tools" / "yamorctl" / "yamorctl"))
-LISTENING = re.compile(r"^yamord: listening on (\S+):(\d+)$")
 START_TIMEOUT = 60.0
 
 
-def load_tool(path: Path):
-    """A tools/ script imported as a module (with tools/reproduce on the path, as it runs)."""
-    import importlib.util
-
-    sys.path.insert(0, str(path.parent))
-    sys.path.insert(0, str(REPO / "tools" / "reproduce"))
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
 def _read_line(stream, timeout: float) -> str:
-    """One line of `stream`, or "" at EOF / after `timeout` seconds."""
+    """One line of `stream`, or "" at EOF / after `timeout` seconds (for the other programs' banners)."""
     ready, _, _ = select.select([stream], [], [], timeout)
     return stream.readline() if ready else ""
 
@@ -58,30 +46,11 @@ def yamord(tmp_path_factory):
     if not YAMORD.is_file():
         pytest.skip(f"yamord not built: {YAMORD} does not exist (make build, or set YAMORD)")
     log = tmp_path_factory.mktemp("yamord") / "yamord.log"
-    with open(log, "w") as stderr:
-        proc = subprocess.Popen([str(YAMORD), "--listen", "127.0.0.1:0"], stdout=subprocess.PIPE,
-                                stderr=stderr, text=True, cwd=REPO)
+    daemon = start_daemon(YAMORD, log=log, timeout=START_TIMEOUT, check=False)
     try:
-        line = _read_line(proc.stdout, START_TIMEOUT).strip()
-        match = LISTENING.match(line)
-        if not match:
-            proc.kill()
-            proc.wait()
-            pytest.fail(f"yamord did not report its port (got {line!r}); log:\n{log.read_text()}")
-        address = f"{match.group(1)}:{match.group(2)}"
-        yield address
+        yield daemon.address
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGTERM)
-            try:
-                code = proc.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-                code = "hung after SIGTERM"
-        else:
-            code = proc.returncode
-        proc.stdout.close()
+        code = daemon.stop()
     assert code == 0, f"yamord exit status {code} after SIGTERM; log:\n{log.read_text()}"
 
 

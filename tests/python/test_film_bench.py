@@ -1,4 +1,4 @@
-"""tools/bench/film_bench.py: its options, and a short run against the real build.
+"""yamor-film-bench (yamor.tools.film_bench): its options, and a short run against the real build.
 
 The run starts a real yamord, films a 2-s evaluation at 64x48 as an MP4 made
 by the daemon and as PNG frames piped to ffmpeg here, and checks the table.
@@ -16,14 +16,16 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, YAMORD, load_tool
+from conftest import REPO, YAMORD
+
+from yamor.tools import film_bench
 
 BUILD = Path(os.environ.get("YAMOR_BUILD", YAMORD.parent.parent))
-BENCH = REPO / "tools" / "bench" / "film_bench.py"
+BENCH = [sys.executable, "-m", "yamor.tools.film_bench"]
 
 
 def load_bench():
-    return load_tool(BENCH)
+    return film_bench
 
 
 def test_options_and_bad_values(capsys):
@@ -44,7 +46,7 @@ def test_options_and_bad_values(capsys):
 def test_a_short_run_prints_both_ways_of_filming(tmp_path):
     if not YAMORD.is_file():
         pytest.skip(f"yamord not built: {YAMORD}")
-    result = subprocess.run([sys.executable, str(BENCH), "--runs", "1", "--seconds", "2",
+    result = subprocess.run([*BENCH, "--runs", "1", "--seconds", "2",
                              "--size", "64x48", "--build", str(BUILD)],
                             cwd=REPO, capture_output=True, text=True, timeout=300)
     if "no renderer" in result.stderr:

@@ -1,4 +1,4 @@
-"""tools/bench/generated_bench.py in --quick mode, and its script-to-morphology helper.
+"""yamor-generated-bench (yamor.tools.generated_bench) in --quick mode, and its script-to-morphology helper.
 
 The smoke test runs the real build (yamord, yamor-optimize, powell.so,
 yamor-cpg-build, yamorctl) with tiny settings (budget 4, 1 s warm-up + 2 s
@@ -9,7 +9,6 @@ The build is $YAMOR_BUILD, else the one $YAMORD lives in (build/release).
 from __future__ import annotations
 
 import csv
-import importlib.util
 import os
 import subprocess
 import sys
@@ -20,16 +19,15 @@ import pytest
 
 from conftest import REPO, YAMORD
 
+from yamor.launcher import start_daemons
+from yamor.tools import generated_bench
+
 BUILD = Path(os.environ.get("YAMOR_BUILD", YAMORD.parent.parent))
-BENCH = REPO / "tools" / "bench" / "generated_bench.py"
+BENCH = [sys.executable, "-m", "yamor.tools.generated_bench"]
 
 
 def load_bench():
-    sys.path.insert(0, str(BENCH.parent))
-    spec = importlib.util.spec_from_file_location("generated_bench", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
+    return generated_bench
     return module
 
 
@@ -61,11 +59,9 @@ def test_generated_bench_quick_writes_the_tables(tmp_path):
                  BUILD / "tools" / "yamorctl" / "yamorctl"):
         if not path.exists():
             pytest.skip(f"not built: {path} (make build, or set YAMOR_BUILD)")
-    sys.path.insert(0, str(REPO / "tools" / "reproduce"))
-    import daemons
-
-    with daemons.DaemonPool.start(BUILD / "host" / "yamord", 2, tmp_path / "logs", quiet=True) as pool:
-        result = subprocess.run([sys.executable, str(BENCH), "--quick", "--robots", "wheel,quadruped-transformed",
+    with start_daemons(2, BUILD / "host" / "yamord", ["--workers", "1", "--log-level", "warn"],
+                       log_dir=tmp_path / "logs") as pool:
+        result = subprocess.run([*BENCH, "--quick", "--robots", "wheel,quadruped-transformed",
                                  "--timing-runs", "1", "--quiet", "--hosts", pool.hosts_arg(),
                                  "--build", str(BUILD), "--out", str(tmp_path)],
                                 cwd=REPO, capture_output=True, text=True, timeout=300)

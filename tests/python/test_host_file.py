@@ -24,22 +24,18 @@ import pytest
 
 from conftest import REPO, YAMORD
 from test_optimize import OPTIMIZE
-from test_resume import CONFIG, _start_daemon
+from test_resume import CONFIG
+
+from yamor.launcher import start_daemon
 
 ARGS = ["--plugin", "random", "--set", "batch=4",
         "--set", "shrink=0.8", "--seed", "11", "--config", str(CONFIG), "--world", "quadruped",
         "--warmup", "0.1", "--duration", "0.2", "--no-plot", "--quiet", "--log-level", "info"]
 
 
-def _stop(proc, sig=signal.SIGTERM):
-    if proc.poll() is None:
-        proc.send_signal(sig)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-    proc.stdout.close()
+def _start_daemon(log: Path):
+    """A one-worker daemon; its exit status is not checked (the test SIGKILLs one)."""
+    return start_daemon(YAMORD, ["--workers", "1"], log=log, check=False)
 
 
 def _rows(folder: Path):
@@ -73,7 +69,7 @@ def test_daemons_join_and_leave_through_the_host_file_without_loss(tmp_path):
         a = _start_daemon(tmp_path / "a.log")
         daemons.append(a)
         hosts = tmp_path / "hosts.txt"
-        _write_hosts(hosts, [a[1]])
+        _write_hosts(hosts, [a.address])
         out = tmp_path / "dynamic"
         log = open(tmp_path / "optimize.log", "w")
         run = subprocess.Popen([str(OPTIMIZE), *ARGS, "--set", "max_evaluations=100000",
@@ -83,23 +79,22 @@ def test_daemons_join_and_leave_through_the_host_file_without_loss(tmp_path):
 
         b = _start_daemon(tmp_path / "b.log")
         daemons.append(b)
-        _write_hosts(hosts, [a[1], b[1]])
-        _wait(lambda: any(r["host"] == b[1] for r in _rows(out)), "an evaluation on b")
+        _write_hosts(hosts, [a.address, b.address])
+        _wait(lambda: any(r["host"] == b.address for r in _rows(out)), "an evaluation on b")
 
-        _write_hosts(hosts, [b[1]])
-        done_on_b = sum(r["host"] == b[1] for r in _rows(out))
-        _wait(lambda: sum(r["host"] == b[1] for r in _rows(out)) >= done_on_b + 2,
+        _write_hosts(hosts, [b.address])
+        done_on_b = sum(r["host"] == b.address for r in _rows(out))
+        _wait(lambda: sum(r["host"] == b.address for r in _rows(out)) >= done_on_b + 2,
               "b going on alone")
-        _stop(a[0])  # unlisted, then stopped
+        a.stop()  # unlisted, then stopped
 
         c = _start_daemon(tmp_path / "c.log")
         daemons.append(c)
-        _write_hosts(hosts, [b[1], c[1]])
-        _wait(lambda: any(r["host"] == c[1] for r in _rows(out)), "an evaluation on c")
-        b[0].send_signal(signal.SIGKILL)  # dies while listed: its work is re-queued
-        b[0].wait()
-        done_on_c = sum(r["host"] == c[1] for r in _rows(out))
-        _wait(lambda: sum(r["host"] == c[1] for r in _rows(out)) >= done_on_c + 8,
+        _write_hosts(hosts, [b.address, c.address])
+        _wait(lambda: any(r["host"] == c.address for r in _rows(out)), "an evaluation on c")
+        b.kill()  # dies while listed: its work is re-queued
+        done_on_c = sum(r["host"] == c.address for r in _rows(out))
+        _wait(lambda: sum(r["host"] == c.address for r in _rows(out)) >= done_on_c + 8,
               "c going on alone")
 
         run.send_signal(signal.SIGINT)  # stop; what was evaluated is kept
@@ -111,16 +106,16 @@ def test_daemons_join_and_leave_through_the_host_file_without_loss(tmp_path):
         # The same run on a fixed pool (c alone), with the budget reached.
         reference = tmp_path / "reference"
         fixed = subprocess.run([str(OPTIMIZE), *ARGS, "--set", f"max_evaluations={reached}",
-                                "--hosts", c[1], "--out", str(reference)],
+                                "--hosts", c.address, "--out", str(reference)],
                                cwd=REPO, capture_output=True, text=True, timeout=120)
         assert fixed.returncode == 0, fixed.stderr
     finally:
-        for proc, _ in daemons:
-            _stop(proc)
+        for daemon in daemons:
+            daemon.stop()
 
     rows = _rows(out)
     assert [int(r["index"]) for r in rows] == list(range(reached)), "each evaluation once, in order"
-    assert {r["host"] for r in rows} == {a[1], b[1], c[1]}
+    assert {r["host"] for r in rows} == {a.address, b.address, c.address}
 
     def without_host_and_time(folder):
         return [{k: v for k, v in r.items() if k not in ("host", "wall_seconds")}

@@ -1,4 +1,4 @@
-"""tools/bench/lifelong_bench.py: its options, and its --quick run of three parts.
+"""yamor-lifelong-bench (yamor.tools.lifelong_bench): its options, and its --quick run of three parts.
 
 The smoke test runs the real build (yamord, yamor-lifelong, yamor-optimize,
 powell.so, cmaes.so, yamorctl) with tiny settings (budgets of 3-6, windows
@@ -19,14 +19,16 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO, YAMORD, load_tool
+from conftest import REPO, YAMORD
+
+from yamor.tools import lifelong_bench
 
 BUILD = Path(os.environ.get("YAMOR_BUILD", YAMORD.parent.parent))
-BENCH = REPO / "tools" / "bench" / "lifelong_bench.py"
+BENCH = [sys.executable, "-m", "yamor.tools.lifelong_bench"]
 
 
 def load_bench():
-    return load_tool(BENCH)
+    return lifelong_bench
 
 
 def test_parse_args_defaults_quick_and_bad_values(capsys):
@@ -52,7 +54,7 @@ def test_lifelong_bench_quick_writes_the_tables(tmp_path):
         if not path.exists():
             pytest.skip(f"not built: {path} (make build, or set YAMOR_BUILD)")
     bench = load_bench()
-    result = subprocess.run([sys.executable, str(BENCH), "--quick", "--parts", "transform,latency,false-alarm",
+    result = subprocess.run([*BENCH, "--quick", "--parts", "transform,latency,false-alarm",
                              "--daemons", "2", "--quiet", "--build", str(BUILD), "--out", str(tmp_path)],
                             cwd=REPO, capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, f"exit {result.returncode}\n{result.stdout}\n{result.stderr}"

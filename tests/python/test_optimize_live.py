@@ -19,9 +19,10 @@ import time
 import pytest
 
 from conftest import REPO, YAMORD
-from test_optimize import OPTIMIZE, _free_port, _start_daemon, read_csv, run_optimize
+from test_optimize import OPTIMIZE, _free_port, read_csv, run_optimize
 
 import yamor
+from yamor.launcher import start_daemon
 
 CONFIG = REPO / "configs" / "optimize" / "quadruped-2.xml"
 SHORT = ["--live-settle-periods", "0.5", "--live-measure-periods", "1"]
@@ -34,15 +35,8 @@ def daemon(tmp_path):
         pytest.skip(f"yamord not built: {YAMORD}")
     if not OPTIMIZE.is_file():
         pytest.skip(f"yamor-optimize not built: {OPTIMIZE}")
-    proc, address = _start_daemon(tmp_path / "yamord.log")
-    yield address
-    proc.send_signal(signal.SIGTERM)
-    try:
-        proc.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-    proc.stdout.close()
+    with start_daemon(YAMORD, ["--workers", "1"], log=tmp_path / "yamord.log") as daemon:
+        yield daemon.address
 
 
 def test_random_learns_live_and_records_the_robot_time(daemon, tmp_path):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import json
+import contextlib
 import os
 import signal
 import subprocess
@@ -21,10 +22,11 @@ from pathlib import Path
 
 import pytest
 
-from conftest import LISTENING, REPO, START_TIMEOUT, YAMORD, _read_line
+from conftest import REPO, START_TIMEOUT, YAMORD, _read_line
 from test_optimize import OPTIMIZE, _free_port, read_csv, run_optimize
 
 import yamor
+from yamor.launcher import start_daemon
 
 BUILD = REPO / "build" / "release"
 CAMAPP = Path(os.environ.get("YAMOR_CAMAPP", BUILD / "tools" / "camapp" / "yamor-camapp"))
@@ -60,33 +62,26 @@ def rig(tmp_path):
     calibration = tmp_path / "camera.txt"
     subprocess.run([str(CAMAPP), "--calibration-only", "--write-calibration", str(calibration),
                     "--led-height", LED_HEIGHT], check=True, capture_output=True, timeout=60)
-    procs = []
-    try:
+    with contextlib.ExitStack() as stack:  # stops camera, daemon, bridge
         bridge = _start([BRIDGE, "--tcp", "127.0.0.1:0", "--log-level", "warn"], tmp_path / "bridge.log")
-        procs.append(bridge)
+        stack.callback(_stop, bridge)
         line = _read_line(bridge.stdout, START_TIMEOUT).strip()
         assert line.startswith("yamor-bridge: tcp 127.0.0.1:"), line
         camera_port = _free_port()
-        daemon = _start([YAMORD, "--listen", "127.0.0.1:0", "--log-level", "warn", "--backend", "serial",
-                         "--device", "tcp://" + line.split()[-1], "--led-tracker",
-                         f"127.0.0.1:{camera_port}", "--tracker-calibration", calibration,
-                         "--position-source", "tracker", "--tracker-max-age", "2"],
-                        tmp_path / "yamord.log")
-        procs.append(daemon)
-        match = LISTENING.match(_read_line(daemon.stdout, START_TIMEOUT).strip())
-        assert match, (tmp_path / "yamord.log").read_text()
-        address = f"{match.group(1)}:{match.group(2)}"
+        daemon = stack.enter_context(start_daemon(
+            YAMORD, ["--log-level", "warn", "--backend", "serial", "--device", "tcp://" + line.split()[-1],
+                     "--led-tracker", f"127.0.0.1:{camera_port}", "--tracker-calibration", calibration,
+                     "--position-source", "tracker", "--tracker-max-age", "2"],
+            log=tmp_path / "yamord.log", timeout=START_TIMEOUT))
+        address = daemon.address
         truth = tmp_path / "truth.csv"
         camera = _start([CAMAPP, "--yamord", address, "--listen", f"127.0.0.1:{camera_port}",
                          "--latency", "0.01", "--truth", truth, "--log-level", "warn"],
                         tmp_path / "camapp.log")
-        procs.append(camera)
+        stack.callback(_stop, camera)
         assert _read_line(camera.stdout, START_TIMEOUT).strip() == \
             f"yamor-camapp: listening on 127.0.0.1:{camera_port}"
         yield {"address": address, "camera": camera, "truth": truth}
-    finally:
-        for proc in reversed(procs):
-            _stop(proc)
 
 
 def test_live_optimization_measures_with_the_camera(rig, tmp_path):

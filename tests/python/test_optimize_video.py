@@ -15,15 +15,17 @@ import json
 import os
 import re
 import shutil
-import signal
 import struct
 import subprocess
 from pathlib import Path
 
 import pytest
 
-from conftest import LISTENING, REPO, START_TIMEOUT, YAMORD, _read_line
+from conftest import REPO, YAMORD
 from test_optimize import CONFIG, OPTIMIZE, read_csv
+
+import yamor
+from yamor.launcher import start_daemon
 
 SHORT = ["--world", "quadruped", "--warmup", "1", "--duration", "2", "--no-plot", "--quiet",
          "--log-level", "warn", "--plugin", "powell", "--set", "max_evaluations=4", "--seed", "2",
@@ -32,26 +34,7 @@ FRAMES = 75  # 3 s at 25 frames per second
 
 
 def _start_daemon(log_path: Path, env=None):
-    with open(log_path, "w") as stderr:
-        proc = subprocess.Popen([str(YAMORD), "--listen", "127.0.0.1:0", "--workers", "1"],
-                                stdout=subprocess.PIPE, stderr=stderr, text=True, cwd=REPO,
-                                env=env)
-    match = LISTENING.match(_read_line(proc.stdout, START_TIMEOUT).strip())
-    if not match:
-        proc.kill()
-        proc.wait()
-        pytest.fail(f"yamord did not report its port; log:\n{log_path.read_text()}")
-    return proc, f"{match.group(1)}:{match.group(2)}"
-
-
-def _stop(proc):
-    proc.send_signal(signal.SIGTERM)
-    try:
-        proc.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
-    proc.stdout.close()
+    return start_daemon(YAMORD, ["--workers", "1"], log=log_path, env=env)
 
 
 @pytest.fixture(scope="module")
@@ -60,18 +43,15 @@ def daemon(tmp_path_factory):
         pytest.skip(f"yamord not built: {YAMORD}")
     if not OPTIMIZE.is_file():
         pytest.skip(f"yamor-optimize not built: {OPTIMIZE}")
-    proc, address = _start_daemon(tmp_path_factory.mktemp("daemon") / "yamord.log")
-    # Skip (not fail) on a machine without any renderer.
-    import yamor
-    with yamor.Host(address, timeout=60) as host:
-        try:
-            host.snapshot(width=8, height=8)
-        except Exception as e:  # noqa: BLE001
-            if "UNAVAILABLE" in str(e) or "no renderer" in str(e):
-                _stop(proc)
-                pytest.skip(f"no renderer on this machine: {e}")
-    yield address
-    _stop(proc)
+    with _start_daemon(tmp_path_factory.mktemp("daemon") / "yamord.log") as daemon:
+        # Skip (not fail) on a machine without any renderer.
+        with yamor.Host(daemon.address, timeout=60) as host:
+            try:
+                host.snapshot(width=8, height=8)
+            except Exception as e:  # noqa: BLE001
+                if "UNAVAILABLE" in str(e) or "no renderer" in str(e):
+                    pytest.skip(f"no renderer on this machine: {e}")
+        yield daemon.address
 
 
 def _run(args, env=None, timeout=300):
@@ -133,13 +113,10 @@ def test_no_video_writes_neither(daemon, tmp_path):
 def test_without_ffmpeg_a_png_sequence_and_a_note(daemon, tmp_path):
     """Neither the daemon nor yamor-optimize can run ffmpeg."""
     env = dict(os.environ, YAMOR_FFMPEG=str(tmp_path / "no-such-ffmpeg"))
-    proc, plain = _start_daemon(tmp_path / "no-ffmpeg.log", env=env)
     out = tmp_path / "run"
-    try:
-        result = _run([*SHORT, "--hosts", plain, "--video-size", "64x48", "--out", str(out)],
+    with _start_daemon(tmp_path / "no-ffmpeg.log", env=env) as plain:
+        result = _run([*SHORT, "--hosts", plain.address, "--video-size", "64x48", "--out", str(out)],
                       env=env)
-    finally:
-        _stop(proc)
     frames = sorted(out.glob("best-0*.png"))
     assert [f.name for f in frames] == [f"best-{i:06d}.png" for i in range(FRAMES)]
     assert _png_size(frames[0]) == (64, 48)
@@ -155,12 +132,9 @@ def test_a_daemon_without_ffmpeg_sends_frames_and_the_video_is_made_here(daemon,
     """The daemon makes best.mp4 itself when it can; when it cannot, it sends
     every frame as PNG and yamor-optimize makes the same-sized video."""
     env = dict(os.environ, YAMOR_FFMPEG=str(tmp_path / "no-such-ffmpeg"))
-    proc, plain = _start_daemon(tmp_path / "no-ffmpeg.log", env=env)
     out = tmp_path / "run"
-    try:
-        result = _run([*SHORT, "--hosts", plain, "--video-size", "64x48", "--out", str(out)])
-    finally:
-        _stop(proc)
+    with _start_daemon(tmp_path / "no-ffmpeg.log", env=env) as plain:
+        result = _run([*SHORT, "--hosts", plain.address, "--video-size", "64x48", "--out", str(out)])
     assert f"video:     {out / 'best.mp4'} ({FRAMES} frames, 25 fps" in result.stdout
     probe = json.loads(subprocess.run(
         ["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
@@ -174,12 +148,9 @@ def test_a_daemon_without_ffmpeg_sends_frames_and_the_video_is_made_here(daemon,
 def test_a_pool_that_cannot_film_keeps_the_run(daemon, tmp_path):
     """A daemon without a renderer: the video is a warning, the run's results stay."""
     env = dict(os.environ, YAMOR_RENDER_BACKEND="none")
-    proc, blind = _start_daemon(tmp_path / "blind.log", env=env)
-    try:
+    with _start_daemon(tmp_path / "blind.log", env=env) as blind:
         out = tmp_path / "run"
-        result = _run([*SHORT, "--hosts", blind, "--out", str(out)])
-    finally:
-        _stop(proc)
+        result = _run([*SHORT, "--hosts", blind.address, "--out", str(out)])
     assert "warning: no video of the best gait (the results are kept)" in result.stderr
     assert "no host could film" in result.stderr
     assert not (out / "best.mp4").exists() and not (out / "best-strip.png").exists()

@@ -1,9 +1,8 @@
-"""tools/plot/plot_landscape.py: the grid plugin's landscape CSV as a heatmap,
+"""yamor-plot-landscape (yamor.tools.plot_landscape): the grid plugin's landscape CSV as a heatmap,
 with an optimizer's path from an evaluations.csv drawn on it."""
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import subprocess
 import sys
@@ -15,14 +14,13 @@ np = pytest.importorskip("numpy")
 image = pytest.importorskip("matplotlib.image")
 
 REPO = Path(__file__).resolve().parents[2]
-SCRIPT = REPO / "tools" / "plot" / "plot_landscape.py"
+SCRIPT = [sys.executable, "-m", "yamor.tools.plot_landscape"]
 
 
 def load_module():
-    spec = importlib.util.spec_from_file_location("plot_landscape", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    from yamor.tools import plot_landscape  # after the importorskip of matplotlib
+
+    return plot_landscape
 
 
 def write_landscape(path: Path, nx: int = 9, ny: int = 7) -> None:
@@ -46,7 +44,7 @@ def write_evaluations(path: Path) -> None:
 
 
 def run(*args):
-    return subprocess.run([sys.executable, str(SCRIPT), *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([*SCRIPT, *map(str, args)], capture_output=True, text=True,
                           timeout=120)
 
 

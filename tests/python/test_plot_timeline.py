@@ -1,4 +1,4 @@
-"""tools/plot/plot_timeline.py: a yamor-lifelong timeline.csv drawn like thesis Figure 7.4."""
+"""yamor-plot-timeline (yamor.tools.plot_timeline): a yamor-lifelong timeline.csv drawn like thesis Figure 7.4."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 image = pytest.importorskip("matplotlib.image")
 
 REPO = Path(__file__).resolve().parents[2]
-SCRIPT = REPO / "tools" / "plot" / "plot_timeline.py"
+SCRIPT = [sys.executable, "-m", "yamor.tools.plot_timeline"]
 HEADER = "time,velocity,ema,state,event,gait"
 
 
@@ -36,7 +36,7 @@ def write_timeline(path: Path) -> None:
 
 
 def run(*args):
-    return subprocess.run([sys.executable, str(SCRIPT), *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([*SCRIPT, *map(str, args)], capture_output=True, text=True,
                           timeout=120)
 
 

@@ -1,4 +1,4 @@
-"""tools/reproduce/reproduce.py and tools/bench/learning_bench.py in --quick mode.
+"""yamor-reproduce and yamor-learning-bench (yamor.tools) in --quick mode.
 
 Each figure command runs against the real build (yamord + yamor-optimize +
 plugins) with tiny settings (4x4 landscape, budgets of 10, 1 s warm-up + 2 s
@@ -12,7 +12,6 @@ The build is $YAMOR_BUILD, else the one $YAMORD lives in (build/release).
 from __future__ import annotations
 
 import csv
-import importlib.util
 import json
 import math
 import os
@@ -28,12 +27,15 @@ import pytest
 
 from conftest import REPO, YAMORD
 
+from yamor.launcher import start_daemons
+from yamor.tools import learning_bench
+
 image = pytest.importorskip("matplotlib.image")
 
 BUILD = Path(os.environ.get("YAMOR_BUILD", YAMORD.parent.parent))
 OPTIMIZE = BUILD / "optimizer-plugins" / "yamor-optimize"
-REPRODUCE = REPO / "tools" / "reproduce" / "reproduce.py"
-BENCH = REPO / "tools" / "bench" / "learning_bench.py"
+REPRODUCE = "yamor.tools.reproduce"
+BENCH = "yamor.tools.learning_bench"
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
@@ -46,9 +48,9 @@ def built():
             pytest.skip(f"not built: {path} (make build, or set YAMOR_BUILD)")
 
 
-def run_tool(script: Path, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
-    """Runs a tool against BUILD; without --hosts it starts 2 daemons of its own."""
-    result = subprocess.run([sys.executable, str(script), *args, "--build", str(BUILD), "--daemons", "2"],
+def run_tool(module: str, *args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    """Runs a tool (python -m `module`) against BUILD; without --hosts it starts 2 daemons of its own."""
+    result = subprocess.run([sys.executable, "-m", module, *args, "--build", str(BUILD), "--daemons", "2"],
                             cwd=REPO, capture_output=True, text=True, timeout=timeout)
     assert result.returncode == 0, f"exit {result.returncode}\n{result.stdout}\n{result.stderr}"
     return result
@@ -139,7 +141,7 @@ def _ignore_sigint() -> None:
 def test_ctrl_c_stops_the_daemons_it_started(built, tmp_path):
     # Started with SIGINT ignored, as `reproduce.py &` in a script or a CI job
     # starts it; the tool must still stop on SIGINT (it once ran on).
-    proc = subprocess.Popen([sys.executable, str(REPRODUCE), "fig6-12", "--quick", "--budget", "1000",
+    proc = subprocess.Popen([sys.executable, "-m", REPRODUCE, "fig6-12", "--quick", "--budget", "1000",
                              "--build", str(BUILD), "--daemons", "2", "--out", str(tmp_path)],
                             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             preexec_fn=_ignore_sigint)
@@ -164,7 +166,7 @@ def test_ctrl_c_stops_the_daemons_it_started(built, tmp_path):
             time.sleep(0.1)
         proc.send_signal(signal.SIGINT)
         # reproduce.py gives yamor-optimize up to 60 s to write its results and
-        # each daemon up to 30 s to drain (tools/reproduce/daemons.py); a wait of
+        # each daemon up to 30 s to drain (yamor.tools.daemons); a wait of
         # exactly that sum failed twice on a loaded machine.
         try:
             proc.wait(timeout=150)
@@ -191,10 +193,8 @@ def test_ctrl_c_stops_the_daemons_it_started(built, tmp_path):
 
 
 def test_learning_bench_quick_writes_the_table_using_running_daemons(built, tmp_path):
-    sys.path.insert(0, str(REPO / "tools" / "reproduce"))
-    import daemons
-
-    with daemons.DaemonPool.start(BUILD / "host" / "yamord", 2, tmp_path / "logs", quiet=True) as pool:
+    with start_daemons(2, BUILD / "host" / "yamord", ["--workers", "1", "--log-level", "warn"],
+                       log_dir=tmp_path / "logs") as pool:
         result = run_tool(BENCH, "--quick", "--plugins", "random,powell-interval", "--seeds", "2",
                           "--budget", "6", "--quiet", "--hosts", pool.hosts_arg(), "--out", str(tmp_path))
         # --hosts: the tool used these daemons and left them running.
@@ -213,11 +213,7 @@ def test_learning_bench_quick_writes_the_table_using_running_daemons(built, tmp_
 
 
 def load_bench():
-    spec = importlib.util.spec_from_file_location("learning_bench", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+    return learning_bench
 
 
 def test_learning_bench_statistics():

@@ -20,8 +20,10 @@ from pathlib import Path
 
 import pytest
 
-from conftest import LISTENING, REPO, START_TIMEOUT, YAMORD, _read_line
+from conftest import REPO, YAMORD
 from test_optimize import OPTIMIZE
+
+from yamor.launcher import start_daemons
 
 CONFIG = REPO / "configs" / "optimize" / "quadruped-2.xml"
 SHORT = ["--world", "quadruped", "--warmup", "0.1", "--duration", "0.2", "--no-plot", "--quiet",
@@ -37,35 +39,15 @@ CASES = 10
 TIMING = ("wall_seconds", "evaluations_per_second")
 
 
-def _start_daemon(log_path: Path):
-    with open(log_path, "w") as stderr:
-        proc = subprocess.Popen([str(YAMORD), "--listen", "127.0.0.1:0", "--workers", "1"],
-                                stdout=subprocess.PIPE, stderr=stderr, text=True, cwd=REPO)
-    match = LISTENING.match(_read_line(proc.stdout, START_TIMEOUT).strip())
-    if not match:
-        proc.kill()
-        proc.wait()
-        pytest.fail(f"yamord did not report its port; log:\n{log_path.read_text()}")
-    return proc, f"{match.group(1)}:{match.group(2)}"
-
-
 @pytest.fixture(scope="module")
 def hosts(tmp_path_factory):
     if not YAMORD.is_file():
         pytest.skip(f"yamord not built: {YAMORD}")
     if not OPTIMIZE.is_file():
         pytest.skip(f"yamor-optimize not built: {OPTIMIZE}")
-    logs = tmp_path_factory.mktemp("daemons")
-    started = [_start_daemon(logs / f"yamord{i}.log") for i in range(2)]
-    yield ",".join(address for _, address in started)
-    for proc, _ in started:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        proc.stdout.close()
+    with start_daemons(2, YAMORD, ["--workers", "1"],
+                       log_dir=tmp_path_factory.mktemp("daemons")) as daemons:
+        yield daemons.hosts_arg()
 
 
 def _command(hosts, scenario, *extra, replace=None):

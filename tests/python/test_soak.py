@@ -1,4 +1,4 @@
-"""tools/soak: its checks, a short soak of the release yamord, and that it fails when it must.
+"""yamor-soak (yamor.tools.soak): its checks, a short soak of the release yamord, and that it fails when it must.
 
 The long soak (64 clients, 10 min, the asan yamord) is run by hand with
 `make soak`; these keep the tool from rotting.
@@ -20,11 +20,9 @@ import pytest
 from conftest import REPO, YAMORD
 from yamor.v1 import host_pb2
 
-sys.path.insert(0, str(REPO / "tools" / "soak"))
-import soak  # noqa: E402
-import soak_client  # noqa: E402
+from yamor.tools import soak, soak_client
 
-SOAK = [sys.executable, str(REPO / "tools" / "soak" / "soak.py")]
+SOAK = [sys.executable, "-m", "yamor.tools.soak"]
 
 
 def needs_yamord():

@@ -6,8 +6,8 @@
 # oscillator-steps/s, one RK4 step of every oscillator per iteration).
 # Programs listed in `plain_programs` are not Google Benchmark binaries: each
 # runs once (it repeats internally) and its own table is printed after ours.
-# Last, tools/bench/physics_compare.py prints the simulation comparison with
-# MuJoCo (when the venv has mujoco), and tools/bench/film_bench.py the cost of
+# Last, yamor-physics-compare prints the simulation comparison with
+# MuJoCo (when the venv has mujoco), and yamor-film-bench the cost of
 # a filmed Evaluate through a real yamord (when ffmpeg is installed).
 set -euo pipefail
 plain_programs=" host_bench pool_bench serial_bench render_bench tracker_bench physics_accuracy "
@@ -101,7 +101,7 @@ done
 if [ -x "$build/tools/mjcf/yamor-mjcf-export" ] && "$py" -c "import mujoco" 2>/dev/null; then
   echo
   echo "bench: physics_compare.py (yamor vs naive ODE vs MuJoCo, 2 ms)" >&2
-  "$py" "$root/tools/bench/physics_compare.py" "$build" --step 0.002 \
+  "$py" -m yamor.tools.physics_compare "$build" --step 0.002 \
     --markdown "$out_dir/physics_compare.md"
 else
   echo "bench: skipping physics_compare.py (needs $build/tools/mjcf/yamor-mjcf-export and mujoco)" >&2
@@ -112,7 +112,7 @@ fi
 if command -v ffmpeg > /dev/null; then
   echo
   echo "bench: film_bench.py (a filmed Evaluate through a real yamord)" >&2
-  "$py" "$root/tools/bench/film_bench.py" --build "$build"
+  "$py" -m yamor.tools.film_bench --build "$build"
 else
   echo "bench: skipping film_bench.py (needs ffmpeg)" >&2
 fi

@@ -33,11 +33,18 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   echo "$want" > "$stamp"
 fi
 
-# The Python client (tools/python, `import yamor`), editable so the checkout's
-# code and stubs are what runs; skipped when this checkout's is installed.
-if ! "$venv/bin/python" -I -c 'import os, sys, yamor
+# The yamor package (tools/python: the client, the launcher and the tools with
+# their yamor-* commands), editable so the checkout's code and stubs are what
+# runs; installed again when its pyproject.toml (the commands) changed or the
+# venv's yamor is another checkout's.
+pyproject="$root/tools/python/pyproject.toml"
+pkg_stamp="$venv/.yamor-pyproject.sha256"
+pkg_want=$(sha256sum "$pyproject" | cut -d' ' -f1)
+if [ ! -f "$pkg_stamp" ] || [ "$(cat "$pkg_stamp")" != "$pkg_want" ] || \
+   ! "$venv/bin/python" -I -c 'import os, sys, yamor
 sys.exit(os.path.dirname(os.path.dirname(os.path.realpath(yamor.__file__))) != os.path.realpath(sys.argv[1]))' \
     "$root/tools/python" 2>/dev/null; then
-  echo "deps: installing the yamor Python client (tools/python)"
+  echo "deps: installing the yamor Python package (tools/python)"
   "$venv/bin/python" -m pip install -q --disable-pip-version-check -e "$root/tools/python"
+  echo "$pkg_want" > "$pkg_stamp"
 fi

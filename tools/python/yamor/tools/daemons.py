@@ -1,17 +1,16 @@
-"""A local pool of yamord daemons and yamor-optimize runs that stop cleanly.
+"""A pool of yamord daemons (started here or already running) and yamor-optimize runs that stop cleanly.
 
-Shared by tools/reproduce/reproduce.py and tools/bench/learning_bench.py.
+Shared by yamor.tools.reproduce and the benchmarks (yamor.tools.*_bench).
 
     with DaemonPool.start(yamord, count=2, log_dir=out) as pool:
         run_optimize(optimize, [..., "--hosts", pool.hosts_arg()])
 
-`DaemonPool.start` launches `count` daemons (`--listen 127.0.0.1:0
---workers 1`) and reads the "yamord: listening on HOST:PORT" line each prints
-(as tools/demo.sh does). The daemons run in their own session, so a Ctrl-C in
-the terminal reaches yamor-optimize (which stops and keeps its results) but
-not the daemons, which the pool then stops with SIGTERM; on Linux they also get
-SIGTERM should this Python process die without cleaning up. `DaemonPool.existing`
-wraps daemons someone else started (`--hosts`) and never stops them.
+`DaemonPool.start` launches `count` daemons (`--workers 1 --log-level warn`)
+with yamor.launcher, which stops them with SIGTERM when the pool closes (a
+Ctrl-C in the terminal reaches yamor-optimize, which stops and keeps its
+results, not the daemons) and never lets them outlive this process.
+`DaemonPool.existing` wraps daemons someone else started (`--hosts`) and
+never stops them.
 
 Not thread-safe: one thread owns a pool and its runs.
 """
@@ -19,18 +18,16 @@ Not thread-safe: one thread owns a pool and its runs.
 from __future__ import annotations
 
 import os
-import re
-import select
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
+from typing import Optional
 
-REPO = Path(__file__).resolve().parents[2]
-LISTENING = re.compile(r"^yamord: listening on (\S+:\d+)$")
+from yamor.checkout import REPO
+from yamor.launcher import Daemons, LaunchError, die_with_parent, start_daemons
+
 START_TIMEOUT = 60.0
-STOP_TIMEOUT = 30.0
 # yamor-optimize writes its summary after SIGINT; give it this long.
 OPTIMIZE_STOP_TIMEOUT = 60.0
 
@@ -58,27 +55,6 @@ def binaries(build: str | os.PathLike) -> dict[str, Path]:
     return found
 
 
-def _die_with_parent() -> None:
-    """Runs in the child before exec: SIGTERM when the parent dies (Linux only)."""
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None, use_errno=True)
-        pr_set_pdeathsig = 1
-        libc.prctl(pr_set_pdeathsig, signal.SIGTERM, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
-
-
-def _read_line(stream, deadline: float) -> str:
-    """One line of `stream`, or "" at EOF or when `deadline` (monotonic) passes."""
-    remaining = deadline - time.monotonic()
-    if remaining <= 0:
-        return ""
-    ready, _, _ = select.select([stream], [], [], remaining)
-    return stream.readline() if ready else ""
-
-
 def _stop(proc: subprocess.Popen, sig: int, timeout: float) -> int:
     """Sends `sig` (if still running), waits up to `timeout`, then kills; returns the exit status."""
     if proc.poll() is None:
@@ -97,11 +73,9 @@ def _stop(proc: subprocess.Popen, sig: int, timeout: float) -> int:
 class DaemonPool:
     """Addresses of yamord hosts; stops the daemons it started when closed (context manager)."""
 
-    def __init__(self, hosts: list[str], procs: list[subprocess.Popen] | None = None,
-                 logs: list[Path] | None = None):
+    def __init__(self, hosts: list[str], daemons: Optional[Daemons] = None):
         self.hosts = hosts
-        self._procs = procs or []
-        self._logs = logs or []
+        self._daemons = daemons
 
     @classmethod
     def existing(cls, spec: str) -> "DaemonPool":
@@ -122,37 +96,17 @@ class DaemonPool:
         """Starts `count` daemons with `workers` Evaluate workers each on ephemeral ports.
 
         Their stderr goes to log_dir/yamordN.log. Raises ToolError (after stopping
-        the ones that did start) when one does not report its port within 60 s.
+        the ones that did start) when one does not serve within 60 s.
         """
-        if count < 1:
-            raise ToolError(f"daemon count must be at least 1, got {count}")
-        log_dir.mkdir(parents=True, exist_ok=True)
-        pool = cls([], [], [])
         try:
-            for i in range(count):
-                log = log_dir / f"yamord{i + 1}.log"
-                with open(log, "w") as stderr:
-                    proc = subprocess.Popen(
-                        [str(yamord), "--listen", "127.0.0.1:0", "--workers", str(workers),
-                         "--log-level", "warn"],
-                        stdout=subprocess.PIPE, stderr=stderr, stdin=subprocess.DEVNULL, text=True,
-                        cwd=REPO, start_new_session=True, preexec_fn=_die_with_parent)
-                pool._procs.append(proc)
-                pool._logs.append(log)
-            deadline = time.monotonic() + START_TIMEOUT
-            for proc, log in zip(pool._procs, pool._logs):
-                line = _read_line(proc.stdout, deadline).strip()
-                match = LISTENING.match(line)
-                if not match:
-                    raise ToolError(f"yamord did not report its port (got {line!r}); see {log}")
-                pool.hosts.append(match.group(1))
-        except BaseException:
-            pool.close()
-            raise
+            daemons = start_daemons(count, yamord, ["--workers", str(workers), "--log-level", "warn"],
+                                    log_dir=log_dir, timeout=START_TIMEOUT)
+        except LaunchError as error:
+            raise ToolError(str(error)) from None
         if not quiet:
-            print(f"daemons: {count} yamord ({workers} worker each) on {pool.hosts_arg()}, "
-                  f"pids {','.join(str(p.pid) for p in pool._procs)}", flush=True)
-        return pool
+            print(f"daemons: {count} yamord ({workers} worker each) on {daemons.hosts_arg()}, "
+                  f"pids {','.join(str(d.pid) for d in daemons)}", flush=True)
+        return cls(daemons.addresses, daemons)
 
     def hosts_arg(self) -> str:
         """The pool as yamor-optimize's --hosts value."""
@@ -160,27 +114,25 @@ class DaemonPool:
 
     def running(self) -> bool:
         """True when every daemon this pool started is still running (always for existing ones)."""
-        return all(proc.poll() is None for proc in self._procs)
+        return self._daemons is None or self._daemons.running()
 
-    def close(self) -> None:
-        """Stops (SIGTERM, then SIGKILL after 30 s) every daemon this pool started."""
-        procs, self._procs = self._procs, []
-        for proc in procs:
-            if proc.poll() is None:
-                try:
-                    proc.send_signal(signal.SIGTERM)
-                except ProcessLookupError:
-                    pass
-        for proc in procs:
-            _stop(proc, signal.SIGTERM, STOP_TIMEOUT)
-            if proc.stdout:
-                proc.stdout.close()
+    def close(self, check: bool = True) -> None:
+        """Stops (SIGTERM, then SIGKILL after 30 s) every daemon this pool started.
+
+        With `check`, ToolError when one did not exit 0.
+        """
+        daemons, self._daemons = self._daemons, None
+        if daemons is not None:
+            try:
+                daemons.stop(check=check)
+            except LaunchError as error:
+                raise ToolError(str(error)) from None
 
     def __enter__(self) -> "DaemonPool":
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.close(check=exc_type is None)
 
 
 def open_pool(args, bins: dict[str, Path], log_dir: Path) -> DaemonPool:
@@ -204,7 +156,7 @@ def run_optimize(optimize: Path, argv: list[str], quiet: bool = False,
     out = open(log, "w") if (quiet and log) else (subprocess.DEVNULL if quiet else None)
     try:
         proc = subprocess.Popen(command, cwd=REPO, stdout=out, stderr=subprocess.STDOUT if quiet else None,
-                                stdin=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+                                stdin=subprocess.DEVNULL, preexec_fn=die_with_parent)
         try:
             code = proc.wait()
         except BaseException:
@@ -233,7 +185,7 @@ def default_daemons() -> int:
 
 
 def main_guard(main) -> int:
-    """Calls main(); maps ToolError to exit 1 and Ctrl-C/SIGTERM to 130 with a message."""
+    """Calls main(); maps ToolError and LaunchError to exit 1 and Ctrl-C/SIGTERM to 130 with a message."""
     # A background job of a non-interactive shell (`tool &` in a script or CI)
     # starts with SIGINT ignored, and Python keeps an inherited SIG_IGN; then
     # `kill -INT` did nothing and the daemons and yamor-optimize ran on.
@@ -241,7 +193,7 @@ def main_guard(main) -> int:
     sigterm_raises_interrupt()
     try:
         return main()
-    except ToolError as error:
+    except (ToolError, LaunchError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

@@ -1,7 +1,8 @@
 """One soak client process: THREADS clients hammering one yamord.
 
-Started by soak.py (``soak_client.py ADDRESS --threads N --seed S``); the
-driver SIGKILLs some of these processes mid-stream and starts new ones.
+Started by yamor.tools.soak (``python -m yamor.tools.soak_client ADDRESS --threads N
+--seed S``); the driver SIGKILLs some of these processes mid-stream and starts
+new ones.
 
 Each client thread has its own channel (its own connection: a local
 subchannel pool) and loops over ACTIONS, picked at random by weight from a
@@ -28,7 +29,6 @@ import sys
 import threading
 import time
 from collections import Counter
-from pathlib import Path
 from typing import Callable, Dict, List, Optional
 
 # Stop requests may come while grpc is still being imported: remember them
@@ -37,10 +37,7 @@ _EARLY_STOP = threading.Event()
 if __name__ == "__main__":  # not when imported (tests)
     signal.signal(signal.SIGTERM, lambda *_: _EARLY_STOP.set())
 
-REPO = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(REPO / "tools" / "python"))  # the generated stubs
-
-import grpc  # noqa: E402
+import grpc  # noqa: E402  (after the handler: importing grpc takes a while)
 from google.protobuf import empty_pb2  # noqa: E402
 
 from yamor.v1 import host_pb2 as pb  # noqa: E402
