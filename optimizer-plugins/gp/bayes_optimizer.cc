@@ -1,0 +1,147 @@
+#include "optimizer-plugins/gp/bayes_optimizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace yamor::gp {
+namespace {
+
+// Two proposals closer than this (unit box) are the same point: evaluating
+// it again teaches a deterministic simulation nothing.
+constexpr double kSamePoint = 1e-6;
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+}  // namespace
+
+BayesianOptimizer::BayesianOptimizer(BayesOptions options, std::uint64_t seed)
+    : options_(options), rng_(seed), model_(options.dimension, options.priors) {
+  if (!(options_.kappa >= 0.0) || options_.fit_restarts < 0) {
+    throw std::invalid_argument("bayesian optimizer: kappa " + std::to_string(options_.kappa) +
+                                " or fit restarts " + std::to_string(options_.fit_restarts) + " is negative");
+  }
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::InitialDesign(int n) {
+  const Eigen::MatrixXd design = LatinHypercube(n, options_.dimension, rng_);
+  std::vector<Eigen::VectorXd> out;
+  for (Eigen::Index i = 0; i < design.rows(); ++i) out.emplace_back(design.row(i).transpose());
+  return out;
+}
+
+void BayesianOptimizer::Tell(const Eigen::VectorXd& x, double value) {
+  if (x.size() != options_.dimension) {
+    throw std::invalid_argument("bayesian optimizer: a point of " + std::to_string(x.size()) +
+                                " values for dimension " + std::to_string(options_.dimension));
+  }
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    if (!(x[i] >= 0.0 && x[i] <= 1.0)) {
+      throw std::invalid_argument("bayesian optimizer: coordinate " + std::to_string(i) + " = " +
+                                  std::to_string(x[i]) + " is outside [0, 1]");
+    }
+  }
+  points_.push_back(x);
+  values_.push_back(value);
+  if (!std::isfinite(value)) ++failures_;
+}
+
+double BayesianOptimizer::Acquire(const GaussianProcess& gp, const Eigen::VectorXd& x, double incumbent) const {
+  const Prediction p = gp.Predict(x);
+  const double sd = std::sqrt(p.variance);
+  if (options_.acquisition == Acquisition::kUpperConfidenceBound) return UpperConfidenceBound(p.mean, sd, options_.kappa);
+  return LogExpectedImprovement(p.mean, sd, incumbent);
+}
+
+bool BayesianOptimizer::IsNew(const Eigen::VectorXd& x, const std::vector<Eigen::VectorXd>& others) const {
+  return std::none_of(others.begin(), others.end(),
+                      [&](const Eigen::VectorXd& o) { return (o - x).norm() < kSamePoint; });
+}
+
+Eigen::VectorXd BayesianOptimizer::FarthestRandomPoint(const std::vector<Eigen::VectorXd>& others) {
+  Eigen::VectorXd best;
+  double best_distance = -1.0;
+  for (int k = 0; k < 100 * options_.dimension; ++k) {
+    Eigen::VectorXd x(options_.dimension);
+    for (Eigen::Index i = 0; i < x.size(); ++i) x[i] = Uniform(rng_);
+    double distance = std::numeric_limits<double>::infinity();
+    for (const Eigen::VectorXd& o : others) distance = std::min(distance, (o - x).norm());
+    if (distance > best_distance) {
+      best_distance = distance;
+      best = x;
+    }
+  }
+  return best;
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::Ask(int q) {
+  if (q < 1) throw std::invalid_argument("bayesian optimizer: asked for " + std::to_string(q) + " points");
+  const auto started = std::chrono::steady_clock::now();
+  std::vector<Eigen::VectorXd> taken = points_;  // observed and proposed: what a new point must differ from
+  std::vector<Eigen::VectorXd> batch;
+  const auto finite = [](double v) { return std::isfinite(v); };
+  if (std::none_of(values_.begin(), values_.end(), finite)) {
+    for (const Eigen::VectorXd& x : InitialDesign(q)) {
+      batch.push_back(IsNew(x, taken) ? x : FarthestRandomPoint(taken));
+      taken.push_back(batch.back());
+    }
+    last_ask_seconds_ = Seconds(started);
+    return batch;
+  }
+
+  const int n = static_cast<int>(points_.size());
+  double floor = std::numeric_limits<double>::infinity();
+  for (double v : values_) {
+    if (std::isfinite(v)) floor = std::min(floor, v);
+  }
+  Eigen::MatrixXd x(n + q, options_.dimension);
+  Eigen::VectorXd y(n + q);
+  for (int i = 0; i < n; ++i) {
+    x.row(i) = points_[static_cast<std::size_t>(i)].transpose();
+    y[i] = std::isfinite(values_[static_cast<std::size_t>(i)]) ? values_[static_cast<std::size_t>(i)] : floor;
+  }
+  model_.SetData(x.topRows(n), y.head(n));
+  const auto fit_started = std::chrono::steady_clock::now();
+  model_.Fit(rng_, options_.fit_restarts);
+  last_fit_seconds_ = Seconds(fit_started);
+
+  GaussianProcess believer = model_;
+  for (int k = 0; k < q; ++k) {
+    // Incumbent: the best posterior mean at a point of the data (noisy EI);
+    // the local search also starts there and at the best observed value.
+    int incumbent_index = 0;
+    double incumbent = -std::numeric_limits<double>::infinity();
+    for (int i = 0; i < n + k; ++i) {
+      const double mean = believer.Predict(x.row(i).transpose()).mean;
+      if (mean > incumbent) {
+        incumbent = mean;
+        incumbent_index = i;
+      }
+    }
+    int best_observed = 0;
+    for (int i = 1; i < n; ++i) {
+      if (y[i] > y[best_observed]) best_observed = i;
+    }
+    const std::vector<Eigen::VectorXd> starts = {x.row(incumbent_index).transpose(), x.row(best_observed).transpose()};
+    Eigen::VectorXd next = MaximizeInBox(
+        [&](const Eigen::VectorXd& p) { return Acquire(believer, p, incumbent); }, options_.dimension, starts,
+        options_.maximizer);
+    if (!IsNew(next, taken)) next = FarthestRandomPoint(taken);
+    taken.push_back(next);
+    batch.push_back(next);
+    if (k + 1 < q) {
+      x.row(n + k) = next.transpose();
+      y[n + k] = believer.Predict(next).mean;
+      believer.SetData(x.topRows(n + k + 1), y.head(n + k + 1), /*keep_standardization=*/true);
+    }
+  }
+  last_ask_seconds_ = Seconds(started);
+  return batch;
+}
+
+}  // namespace yamor::gp

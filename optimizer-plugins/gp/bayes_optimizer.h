@@ -1,0 +1,84 @@
+// Bayesian optimization over the unit box, ask and tell: a Gaussian process
+// (gaussian_process.h) refitted on every observation, proposals maximizing
+// log expected improvement (noisy: the incumbent is the best posterior mean
+// at an observed point) or an upper confidence bound, and batches by the
+// Kriging believer (each chosen point joins the model at its predicted mean,
+// with the same hyper-parameters, before the next is chosen). Maximizes.
+// Independent of the plugin ABI: the bayesopt plugin and gap mode drive it.
+#pragma once
+
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "optimizer-plugins/gp/acquisition.h"
+#include "optimizer-plugins/gp/gaussian_process.h"
+
+namespace yamor::gp {
+
+/// Which acquisition function proposals maximize.
+enum class Acquisition {
+  kExpectedImprovement,    ///< log EI over the best posterior mean at an observed point.
+  kUpperConfidenceBound,   ///< mean + kappa·sd.
+};
+
+/// Settings of a BayesianOptimizer.
+struct BayesOptions {
+  int dimension = 1;                                        ///< Inputs, ≥ 1.
+  Acquisition acquisition = Acquisition::kExpectedImprovement;  ///< What proposals maximize.
+  double kappa = 2.0;                                       ///< UCB's sd multiplier.
+  int fit_restarts = 2;                                     ///< Random MAP starts per fit (besides warm and mode).
+  Priors priors;                                            ///< The GP's priors and noise floor.
+  MaximizerOptions maximizer;                               ///< The acquisition maximizer's budgets.
+};
+
+/// Sequential model-based optimization. Not thread-safe (one caller).
+class BayesianOptimizer {
+ public:
+  /// Every random choice (initial design, MAP restarts, fallbacks) comes
+  /// from a generator seeded with `seed`. std::invalid_argument for a bad option.
+  BayesianOptimizer(BayesOptions options, std::uint64_t seed);
+
+  /// `n` points of a seeded maximin Latin hypercube (the design without a prior).
+  std::vector<Eigen::VectorXd> InitialDesign(int n);
+
+  /// Records that `x` (in the unit box) gave `value`. A NaN or infinite
+  /// value is a failed evaluation: it counts as the worst finite value seen
+  /// (the floor), so the model learns to avoid the point without a
+  /// non-number ever entering it. std::invalid_argument for a bad `x`.
+  void Tell(const Eigen::VectorXd& x, double value);
+
+  /// `q` ≥ 1 new points, pairwise distinct and distinct from every observed
+  /// point: refits the model, then picks them one by one (Kriging believer).
+  /// Before any finite value, Latin-hypercube points.
+  std::vector<Eigen::VectorXd> Ask(int q);
+
+  /// The model of the last Ask (real observations only, failures at the floor).
+  const GaussianProcess& model() const { return model_; }
+  /// Observations told so far.
+  int observations() const { return static_cast<int>(values_.size()); }
+  /// Failed (non-finite) observations among them.
+  int failures() const { return failures_; }
+  /// Wall seconds of the last hyper-parameter fit.
+  double last_fit_seconds() const { return last_fit_seconds_; }
+  /// Wall seconds of the last Ask (fit and acquisition maximization).
+  double last_ask_seconds() const { return last_ask_seconds_; }
+
+ private:
+  double Acquire(const GaussianProcess& gp, const Eigen::VectorXd& x, double incumbent) const;
+  bool IsNew(const Eigen::VectorXd& x, const std::vector<Eigen::VectorXd>& others) const;
+  Eigen::VectorXd FarthestRandomPoint(const std::vector<Eigen::VectorXd>& others);
+
+  BayesOptions options_;
+  std::mt19937_64 rng_;
+  GaussianProcess model_;
+  std::vector<Eigen::VectorXd> points_;
+  std::vector<double> values_;  // as told; non-finite = failed
+  int failures_ = 0;
+  double last_fit_seconds_ = 0.0;
+  double last_ask_seconds_ = 0.0;
+};
+
+}  // namespace yamor::gp
