@@ -12,6 +12,7 @@ namespace {
 
 constexpr double kSqrt5 = 2.23606797749978969641;
 constexpr double kLog2Pi = 1.83787706640934548356;
+constexpr Eigen::Index kManyPoints = 100;
 
 // log N(v; mean, sd) and its derivative in v.
 double LogNormalDensity(double v, double mean, double sd, double* derivative) {
@@ -262,7 +263,9 @@ void GaussianProcess::Fit(std::mt19937_64& rng, int restarts) {
   upper[d + 1] = std::log(2.0);
 
   std::vector<Hyperparameters> starts = {h_, Mode()};
-  for (int k = 0; k < restarts; ++k) {
+  // Beyond kManyPoints the posterior has settled near the previous fit and
+  // every start costs O(n³) per step: no random starts.
+  for (int k = 0; k < (x_.rows() > kManyPoints ? 0 : restarts); ++k) {
     Hyperparameters h;
     h.log_lengthscales.resize(d);
     for (int i = 0; i < d; ++i) {

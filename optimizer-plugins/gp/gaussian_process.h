@@ -67,7 +67,8 @@ class GaussianProcess {
   void SetHyperparameters(const Hyperparameters& h);
 
   /// MAP fit from the current hyper-parameters, the prior's mode and
-  /// `restarts` draws from the priors (seeded by `rng`); keeps the best.
+  /// `restarts` draws from the priors (seeded by `rng`; none beyond 100
+  /// points, where each start is costly and the fit has settled); keeps the best.
   void Fit(std::mt19937_64& rng, int restarts = 3);
 
   /// The posterior at `x` (d values in the box).
