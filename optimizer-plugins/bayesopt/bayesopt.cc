@@ -54,6 +54,7 @@ class BayesOpt : public yamor::plugin::Optimizer {
     options.kappa = context.RealField("kappa");
     options.fit_restarts = static_cast<int>(context.IntField("fit_restarts"));
     options.priors.noise_floor = context.RealField("noise_floor");
+    options.max_model_points = static_cast<int>(context.IntField("max_model_points"));
     gp::BayesianOptimizer bo(options, context.Random());
 
     std::vector<Eigen::VectorXd> design;
@@ -165,6 +166,8 @@ const YamorField kFields[] = {
      YAMOR_FIELD_INTEGER, 0, 100, "2", nullptr},
     {"noise_floor", "smallest noise variance, as a fraction of the values' variance", YAMOR_FIELD_REAL, 1e-12, 1.0,
      "1e-6", nullptr},
+    {"max_model_points", "most evaluations in the model: the best half and the most recent (0: all; a fit costs n^3)",
+     YAMOR_FIELD_INTEGER, 0, 100000, "300", nullptr},
 };
 
 }  // namespace

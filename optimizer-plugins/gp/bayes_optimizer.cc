@@ -22,9 +22,11 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 BayesianOptimizer::BayesianOptimizer(BayesOptions options, std::uint64_t seed)
     : options_(options), rng_(seed), model_(options.dimension, options.priors) {
-  if (!(options_.kappa >= 0.0) || options_.fit_restarts < 0) {
-    throw std::invalid_argument("bayesian optimizer: kappa " + std::to_string(options_.kappa) +
-                                " or fit restarts " + std::to_string(options_.fit_restarts) + " is negative");
+  if (!(options_.kappa >= 0.0) || options_.fit_restarts < 0 || options_.max_model_points < 0 ||
+      options_.max_model_points == 1) {
+    throw std::invalid_argument("bayesian optimizer: kappa " + std::to_string(options_.kappa) + ", fit restarts " +
+                                std::to_string(options_.fit_restarts) + " or max model points " +
+                                std::to_string(options_.max_model_points) + " is invalid");
   }
 }
 
@@ -79,6 +81,31 @@ Eigen::VectorXd BayesianOptimizer::FarthestRandomPoint(const std::vector<Eigen::
   return best;
 }
 
+std::vector<std::size_t> BayesianOptimizer::ModelPoints(const std::vector<double>& values) const {
+  std::vector<std::size_t> all(values.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+  const auto cap = static_cast<std::size_t>(options_.max_model_points);
+  if (cap == 0 || all.size() <= cap) return all;
+  // The best half by value (where the optimum is sought), then the most
+  // recent (where the search is now), in observation order.
+  std::vector<std::size_t> by_value = all;
+  std::stable_sort(by_value.begin(), by_value.end(), [&](std::size_t a, std::size_t b) { return values[a] > values[b]; });
+  std::vector<bool> keep(all.size(), false);
+  for (std::size_t k = 0; k < cap / 2; ++k) keep[by_value[k]] = true;
+  std::size_t kept = cap / 2;
+  for (std::size_t i = all.size(); i-- > 0 && kept < cap;) {
+    if (!keep[i]) {
+      keep[i] = true;
+      ++kept;
+    }
+  }
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (keep[i]) out.push_back(i);
+  }
+  return out;
+}
+
 std::vector<Eigen::VectorXd> BayesianOptimizer::Ask(int q) {
   if (q < 1) throw std::invalid_argument("bayesian optimizer: asked for " + std::to_string(q) + " points");
   const auto started = std::chrono::steady_clock::now();
@@ -94,16 +121,21 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::Ask(int q) {
     return batch;
   }
 
-  const int n = static_cast<int>(points_.size());
   double floor = std::numeric_limits<double>::infinity();
   for (double v : values_) {
     if (std::isfinite(v)) floor = std::min(floor, v);
   }
+  std::vector<double> values = values_;
+  for (double& v : values) {
+    if (!std::isfinite(v)) v = floor;
+  }
+  const std::vector<std::size_t> kept = ModelPoints(values);
+  const int n = static_cast<int>(kept.size());
   Eigen::MatrixXd x(n + q, options_.dimension);
   Eigen::VectorXd y(n + q);
   for (int i = 0; i < n; ++i) {
-    x.row(i) = points_[static_cast<std::size_t>(i)].transpose();
-    y[i] = std::isfinite(values_[static_cast<std::size_t>(i)]) ? values_[static_cast<std::size_t>(i)] : floor;
+    x.row(i) = points_[kept[static_cast<std::size_t>(i)]].transpose();
+    y[i] = values[kept[static_cast<std::size_t>(i)]];
   }
   model_.SetData(x.topRows(n), y.head(n));
   const auto fit_started = std::chrono::steady_clock::now();

@@ -42,7 +42,7 @@ TEST_F(BayesOptTest, DeclaresItsFields) {
   std::vector<std::string> names;
   for (const FieldSpec& f : plugin_->fields()) names.push_back(f.name);
   for (const char* expected : {"max_evaluations", "initial_points", "include_start", "acquisition", "kappa", "batch",
-                               "fit_restarts", "noise_floor"}) {
+                               "fit_restarts", "noise_floor", "max_model_points"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
   }
 }
@@ -118,7 +118,8 @@ TEST_F(BayesOptTest, ANonFiniteValueDoesNotPoisonTheRun) {
   context.get_field = [](void*, const char* name, const char** value) -> int32_t {
     static const std::map<std::string, std::string> fields = {
         {"max_evaluations", "24"}, {"initial_points", "0"}, {"include_start", "true"}, {"acquisition", "ei"},
-        {"kappa", "2"},           {"batch", "2"},          {"fit_restarts", "2"},     {"noise_floor", "1e-6"}};
+        {"kappa", "2"},           {"batch", "2"},          {"fit_restarts", "2"},     {"noise_floor", "1e-6"},
+        {"max_model_points", "300"}};
     const auto it = fields.find(name);
     if (it == fields.end()) return YAMOR_NOT_FOUND;
     *value = it->second.c_str();

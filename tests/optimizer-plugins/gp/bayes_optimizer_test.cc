@@ -115,12 +115,29 @@ TEST(BayesianOptimizerTest, TheSameSeedProposesTheSamePoints) {
   EXPECT_NE(run(9), run(10));
 }
 
+TEST(BayesianOptimizerTest, TheModelKeepsTheBestHalfAndTheMostRecentPoints) {
+  BayesianOptimizer bo({.dimension = 2, .max_model_points = 20}, 6);
+  const std::vector<Eigen::VectorXd> design = bo.InitialDesign(50);
+  for (const Eigen::VectorXd& x : design) bo.Tell(x, NegBranin(x));
+  bo.Ask(1);
+  const GaussianProcess& model = bo.model();
+  ASSERT_EQ(model.size(), 20);
+  std::vector<double> values;
+  for (const Eigen::VectorXd& x : design) values.push_back(NegBranin(x));
+  std::vector<double> sorted = values;
+  std::sort(sorted.rbegin(), sorted.rend());
+  const Eigen::VectorXd& kept = model.outputs();
+  for (int k = 0; k < 10; ++k) EXPECT_NE(std::find(kept.begin(), kept.end(), sorted[static_cast<std::size_t>(k)]), kept.end()) << k;
+  EXPECT_EQ(model.inputs().row(19).transpose(), design.back());  // the latest is in, last
+}
+
 TEST(BayesianOptimizerTest, RefusesBadArguments) {
   BayesianOptimizer bo({.dimension = 2}, 1);
   EXPECT_THROW(bo.Tell(Eigen::Vector3d(0.1, 0.1, 0.1), 1.0), std::invalid_argument);
   EXPECT_THROW(bo.Tell(Eigen::Vector2d(0.1, 1.1), 1.0), std::invalid_argument);
   EXPECT_THROW(bo.Ask(0), std::invalid_argument);
   EXPECT_THROW(BayesianOptimizer({.dimension = 2, .kappa = -1.0}, 1), std::invalid_argument);
+  EXPECT_THROW(BayesianOptimizer({.dimension = 2, .max_model_points = 1}, 1), std::invalid_argument);
 }
 
 }  // namespace
