@@ -55,6 +55,14 @@ class BayesOpt : public yamor::plugin::Optimizer {
     options.fit_restarts = static_cast<int>(context.IntField("fit_restarts"));
     options.priors.noise_floor = context.RealField("noise_floor");
     options.max_model_points = static_cast<int>(context.IntField("max_model_points"));
+    if (context.BoolField("periodic_phases")) {
+      // A phase lag over exactly one turn: its two ends are the same gait.
+      for (std::size_t i = 0; i < n_; ++i) {
+        const bool phase = std::string(context.Parameter(i).name).rfind("phase.", 0) == 0;
+        const double range = upper_[i] - lower_[i];
+        options.periodic.push_back(phase && std::abs(range - 2.0 * M_PI) < 1e-9 * 2.0 * M_PI);
+      }
+    }
     gp::BayesianOptimizer bo(options, context.Random());
 
     std::vector<Eigen::VectorXd> design;
@@ -166,6 +174,8 @@ const YamorField kFields[] = {
      YAMOR_FIELD_INTEGER, 0, 100, "2", nullptr},
     {"noise_floor", "smallest noise variance, as a fraction of the values' variance", YAMOR_FIELD_REAL, 1e-12, 1.0,
      "1e-6", nullptr},
+    {"periodic_phases", "a phase.* parameter ranging over exactly 2 pi wraps around in the model",
+     YAMOR_FIELD_BOOLEAN, 0, 0, "false", nullptr},
     {"max_model_points", "most evaluations in the model: the best half and the most recent (0: all; a fit costs n^3)",
      YAMOR_FIELD_INTEGER, 0, 100000, "300", nullptr},
 };

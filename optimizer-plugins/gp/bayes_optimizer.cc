@@ -21,7 +21,7 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 }  // namespace
 
 BayesianOptimizer::BayesianOptimizer(BayesOptions options, std::uint64_t seed)
-    : options_(options), rng_(seed), model_(options.dimension, options.priors) {
+    : options_(options), rng_(seed), model_(options.dimension, options.priors, options.periodic) {
   if (!(options_.kappa >= 0.0) || options_.fit_restarts < 0 || options_.max_model_points < 0 ||
       options_.max_model_points == 1) {
     throw std::invalid_argument("bayesian optimizer: kappa " + std::to_string(options_.kappa) + ", fit restarts " +

@@ -36,6 +36,9 @@ struct BayesOptions {
   /// value and the most recent rest. A fit costs O(n³) per step: ~0.9 s of
   /// CPU at 300 points of 7 inputs, minutes at 1000.
   int max_model_points = 300;
+  /// Inputs that are angles over one whole period of the box (empty: none);
+  /// see GaussianProcess.
+  std::vector<bool> periodic;
 };
 
 /// Sequential model-based optimization. Not thread-safe (one caller).

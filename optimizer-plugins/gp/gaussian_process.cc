@@ -89,8 +89,14 @@ double CholeskyWithJitter(const Eigen::MatrixXd& k, Eigen::LLT<Eigen::MatrixXd>&
   }
 }
 
-GaussianProcess::GaussianProcess(int dimension, Priors priors) : dimension_(dimension), priors_(priors) {
+GaussianProcess::GaussianProcess(int dimension, Priors priors, std::vector<bool> periodic)
+    : dimension_(dimension), priors_(priors), periodic_(std::move(periodic)) {
   if (dimension < 1) throw std::invalid_argument("GP dimension " + std::to_string(dimension) + " < 1");
+  if (periodic_.empty()) periodic_.assign(static_cast<std::size_t>(dimension), false);
+  if (periodic_.size() != static_cast<std::size_t>(dimension)) {
+    throw std::invalid_argument("GP: " + std::to_string(periodic_.size()) + " periodic flags for dimension " +
+                                std::to_string(dimension));
+  }
   if (!(priors_.noise_floor > 0.0) || !(priors_.lengthscale_log_sd > 0.0) || !(priors_.signal_log_sd > 0.0) ||
       !(priors_.noise_log_sd > 0.0)) {
     throw std::invalid_argument("GP priors: the noise floor " + std::to_string(priors_.noise_floor) +
@@ -157,19 +163,37 @@ void GaussianProcess::Factorize() {
   const Eigen::Index n = x_.rows();
   jitter_ = 0.0;
   if (n == 0) return;
-  const Eigen::VectorXd l = h_.log_lengthscales.array().exp();
+  const Eigen::VectorXd inverse_l = (-h_.log_lengthscales).array().exp();
   const double sf2 = std::exp(h_.log_signal_variance);
   Eigen::MatrixXd k(n, n);
   for (Eigen::Index a = 0; a < n; ++a) {
     k(a, a) = sf2 + std::exp(h_.log_noise_variance);
-    for (Eigen::Index b = 0; b < a; ++b) k(a, b) = k(b, a) = Matern52(x_.row(a), x_.row(b), l, sf2);
+    for (Eigen::Index b = 0; b < a; ++b) {
+      const double r = std::sqrt(StoredDistance2(inverse_l, a, b));
+      k(a, b) = k(b, a) = sf2 * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * std::exp(-kSqrt5 * r);
+    }
   }
   jitter_ = CholeskyWithJitter(k, llt_);
   alpha_ = llt_.solve(z_);
 }
 
 double GaussianProcess::Kernel(const Eigen::VectorXd& a, const Eigen::VectorXd& b) const {
-  return Matern52(a, b, h_.log_lengthscales.array().exp(), std::exp(h_.log_signal_variance));
+  double r2 = 0.0;
+  for (int j = 0; j < dimension_; ++j) {
+    const double t = Difference(j, a[j], b[j]) * std::exp(-h_.log_lengthscales[j]);
+    r2 += t * t;
+  }
+  const double r = std::sqrt(r2);
+  return std::exp(h_.log_signal_variance) * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r2) * std::exp(-kSqrt5 * r);
+}
+
+double GaussianProcess::StoredDistance2(const Eigen::VectorXd& inverse_l, Eigen::Index a, Eigen::Index b) const {
+  double r2 = 0.0;
+  for (int j = 0; j < dimension_; ++j) {
+    const double t = Difference(j, x_(a, j), x_(b, j)) * inverse_l[j];
+    r2 += t * t;
+  }
+  return r2;
 }
 
 Prediction GaussianProcess::Predict(const Eigen::VectorXd& x) const {
@@ -182,7 +206,7 @@ Prediction GaussianProcess::Predict(const Eigen::VectorXd& x) const {
   for (Eigen::Index i = 0; i < n; ++i) {
     double r2 = 0.0;
     for (int j = 0; j < dimension_; ++j) {
-      const double t = (x[j] - x_(i, j)) * inverse_l[j];
+      const double t = Difference(j, x[j], x_(i, j)) * inverse_l[j];
       r2 += t * t;
     }
     const double r = std::sqrt(r2);
@@ -196,7 +220,7 @@ Prediction GaussianProcess::Predict(const Eigen::VectorXd& x) const {
 double GaussianProcess::LogPosterior(const Hyperparameters& h, Eigen::VectorXd* gradient) const {
   const int d = dimension_;
   const Eigen::Index n = x_.rows();
-  const Eigen::VectorXd l = h.log_lengthscales.array().exp();
+  const Eigen::VectorXd inverse_l = (-h.log_lengthscales).array().exp();
   const double sf2 = std::exp(h.log_signal_variance);
   const double sn2 = std::exp(h.log_noise_variance);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(d + 2);
@@ -209,7 +233,7 @@ double GaussianProcess::LogPosterior(const Hyperparameters& h, Eigen::VectorXd* 
       k(a, a) = sf2 + sn2;
       gmat(a, a) = 0.0;
       for (Eigen::Index b = 0; b < a; ++b) {
-        const double r = ((x_.row(a) - x_.row(b)).array() / l.transpose().array()).matrix().norm();
+        const double r = std::sqrt(StoredDistance2(inverse_l, a, b));
         const double e = std::exp(-kSqrt5 * r);
         k(a, b) = k(b, a) = sf2 * (1.0 + kSqrt5 * r + 5.0 / 3.0 * r * r) * e;
         gmat(a, b) = gmat(b, a) = sf2 * 5.0 / 3.0 * (1.0 + kSqrt5 * r) * e;
@@ -227,7 +251,7 @@ double GaussianProcess::LogPosterior(const Hyperparameters& h, Eigen::VectorXd* 
         for (Eigen::Index b = 0; b < a; ++b) {
           const double wg = w(a, b) * gmat(a, b);
           for (int i = 0; i < d; ++i) {
-            const double s = (x_(a, i) - x_(b, i)) / l[i];
+            const double s = Difference(i, x_(a, i), x_(b, i)) * inverse_l[i];
             g[i] += wg * s * s;  // both triangles: 2 × ½
           }
           g[d] += w(a, b) * k(a, b);

@@ -7,6 +7,7 @@
 // BoTorch (kernel, likelihood, priors as separate pieces); the code is ours.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
@@ -53,8 +54,11 @@ struct Prediction {
 /// Thread safety: const methods may run concurrently; Fit/SetData are not.
 class GaussianProcess {
  public:
-  /// An empty model for inputs of `dimension` ≥ 1 (std::invalid_argument otherwise).
-  explicit GaussianProcess(int dimension, Priors priors = {});
+  /// An empty model for inputs of `dimension` ≥ 1 (std::invalid_argument
+  /// otherwise). An input flagged in `periodic` (empty: none) is an angle
+  /// over one whole period of the box, 0 and 1 the same: its difference
+  /// enters the distance as the chord sin(πΔ)/π, so the kernel wraps around.
+  explicit GaussianProcess(int dimension, Priors priors = {}, std::vector<bool> periodic = {});
 
   /// Stores the data (rows of `x` in [0, 1]^d, finite `y`) and factorizes
   /// with the current hyper-parameters. The outputs' mean and scale are
@@ -98,11 +102,19 @@ class GaussianProcess {
 
  private:
   Hyperparameters Mode() const;
+  // The difference of inputs a and b along `j` (the chord for a periodic one).
+  double Difference(int j, double a, double b) const {
+    const double d = a - b;
+    return periodic_[static_cast<std::size_t>(j)] ? std::sin(M_PI * d) / M_PI : d;
+  }
+  // Squared scaled distance of stored points a and b.
+  double StoredDistance2(const Eigen::VectorXd& inverse_l, Eigen::Index a, Eigen::Index b) const;
   void Factorize();
   Hyperparameters Clamp(Hyperparameters h) const;
 
   int dimension_;
   Priors priors_;
+  std::vector<bool> periodic_;
   Hyperparameters h_;
   Eigen::MatrixXd x_;
   Eigen::VectorXd y_;

@@ -42,7 +42,7 @@ TEST_F(BayesOptTest, DeclaresItsFields) {
   std::vector<std::string> names;
   for (const FieldSpec& f : plugin_->fields()) names.push_back(f.name);
   for (const char* expected : {"max_evaluations", "initial_points", "include_start", "acquisition", "kappa", "batch",
-                               "fit_restarts", "noise_floor", "max_model_points"}) {
+                               "fit_restarts", "noise_floor", "max_model_points", "periodic_phases"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
   }
 }
@@ -119,7 +119,7 @@ TEST_F(BayesOptTest, ANonFiniteValueDoesNotPoisonTheRun) {
     static const std::map<std::string, std::string> fields = {
         {"max_evaluations", "24"}, {"initial_points", "0"}, {"include_start", "true"}, {"acquisition", "ei"},
         {"kappa", "2"},           {"batch", "2"},          {"fit_restarts", "2"},     {"noise_floor", "1e-6"},
-        {"max_model_points", "300"}};
+        {"max_model_points", "300"}, {"periodic_phases", "true"}};
     const auto it = fields.find(name);
     if (it == fields.end()) return YAMOR_NOT_FOUND;
     *value = it->second.c_str();
@@ -178,7 +178,8 @@ TEST_F(BayesOptTest, QuadrupedCandidatesObeyTheConstrainRules) {
     std::map<std::string, double> v(named.begin(), named.end());
     return -std::pow(v.at("amplitude.0") - 0.6, 2) - std::pow(v.at("phase.0.5") - 2.0, 2);
   });
-  Session session(*plugin_, problem, evaluator, {.seed = 3, .set = {{"max_evaluations", "14"}, {"batch", "3"}}});
+  Session session(*plugin_, problem, evaluator,
+                  {.seed = 3, .set = {{"max_evaluations", "14"}, {"batch", "3"}, {"periodic_phases", "true"}}});
   const SessionResult result = session.Run();
   ASSERT_EQ(result.status, "budget") << result.error;
   ASSERT_EQ(seen.size(), 14u);

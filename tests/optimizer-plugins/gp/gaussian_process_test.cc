@@ -65,6 +65,20 @@ TEST(GaussianProcessTest, WithoutDataThePosteriorIsThePrior) {
   EXPECT_NEAR(p.variance, 2.0, 1e-15);
 }
 
+TEST(GaussianProcessTest, APeriodicInputWrapsAround) {
+  // 0.01 and 0.99 are 0.02 apart around the circle: as correlated as 0.01
+  // and 0.03 (chord sin(0.02π)/π both), where a plain input keeps them 0.98 apart.
+  GaussianProcess periodic(2, {}, {true, false});
+  GaussianProcess plain(2);
+  for (GaussianProcess* gp : {&periodic, &plain}) gp->SetHyperparameters(Fixed({0.1, 0.1}, 1.0, 1e-4));
+  const Eigen::Vector2d a(0.01, 0.5), b(0.99, 0.5), c(0.03, 0.5);
+  EXPECT_NEAR(periodic.Kernel(a, b), periodic.Kernel(a, c), 1e-12);
+  EXPECT_NEAR(periodic.Kernel(a, c), Matern52(a, Eigen::Vector2d(0.01 + std::sin(0.02 * M_PI) / M_PI, 0.5),
+                                              Eigen::Vector2d(0.1, 0.1), 1.0), 1e-12);
+  EXPECT_LT(plain.Kernel(a, b), 1e-6);
+  EXPECT_THROW(GaussianProcess(2, {}, {true}), std::invalid_argument);
+}
+
 TEST(GaussianProcessTest, LogPosteriorGradientMatchesFiniteDifferences) {
   std::mt19937_64 rng(7);
   const int d = 3, n = 12;
@@ -74,7 +88,7 @@ TEST(GaussianProcessTest, LogPosteriorGradientMatchesFiniteDifferences) {
     for (int j = 0; j < d; ++j) x(i, j) = Uniform(rng);
     y[i] = std::sin(5.0 * x(i, 0)) + x(i, 1) * x(i, 2);
   }
-  GaussianProcess gp(d);
+  GaussianProcess gp(d, {}, {false, true, false});  // one periodic input: its chord too
   gp.SetData(x, y);
   const Hyperparameters h = Fixed({0.3, 0.8, 1.7}, 0.9, 0.02);
   Eigen::VectorXd gradient;
