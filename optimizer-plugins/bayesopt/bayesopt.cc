@@ -55,6 +55,7 @@ class BayesOpt : public yamor::plugin::Optimizer {
     options.fit_restarts = static_cast<int>(context.IntField("fit_restarts"));
     options.priors.noise_floor = context.RealField("noise_floor");
     options.max_model_points = static_cast<int>(context.IntField("max_model_points"));
+    options.trust_region = context.RealField("trust_region");
     if (context.BoolField("periodic_phases")) {
       // A phase lag over exactly one turn: its two ends are the same gait.
       for (std::size_t i = 0; i < n_; ++i) {
@@ -66,7 +67,8 @@ class BayesOpt : public yamor::plugin::Optimizer {
     gp::BayesianOptimizer bo(options, context.Random());
 
     std::vector<Eigen::VectorXd> design;
-    if (context.BoolField("include_start") && initial > 0) {
+    const bool include_start = context.BoolField("include_start") && initial > 0;
+    if (include_start) {
       const std::vector<double> start = context.Start();
       Eigen::VectorXd u(static_cast<Eigen::Index>(n_));
       for (std::size_t i = 0; i < n_; ++i) {
@@ -75,7 +77,9 @@ class BayesOpt : public yamor::plugin::Optimizer {
       design.push_back(u);
     }
     if (initial > static_cast<long long>(design.size())) {
-      for (const Eigen::VectorXd& u : bo.InitialDesign(static_cast<int>(initial) - static_cast<int>(design.size()))) {
+      const int more = static_cast<int>(initial) - static_cast<int>(design.size());
+      // With a trust region, the design explores the start's neighbourhood.
+      for (const Eigen::VectorXd& u : include_start ? bo.InitialDesign(more, design.front()) : bo.InitialDesign(more)) {
         design.push_back(u);
       }
     }
@@ -174,6 +178,8 @@ const YamorField kFields[] = {
      YAMOR_FIELD_INTEGER, 0, 100, "2", nullptr},
     {"noise_floor", "smallest noise variance, as a fraction of the values' variance", YAMOR_FIELD_REAL, 1e-12, 1.0,
      "1e-6", nullptr},
+    {"trust_region", "initial side of the trust region around the best point, fraction of each range (0: none)",
+     YAMOR_FIELD_REAL, 0.0, 1.0, "0", nullptr},
     {"periodic_phases", "a phase.* parameter ranging over exactly 2 pi wraps around in the model",
      YAMOR_FIELD_BOOLEAN, 0, 0, "false", nullptr},
     {"max_model_points", "most evaluations in the model: the best half and the most recent (0: all; a fit costs n^3)",

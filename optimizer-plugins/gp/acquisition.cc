@@ -35,9 +35,11 @@ double LogH(double z) {
 struct BoxObjective {
   const std::function<double(const Eigen::VectorXd&)>* f;
   int dimension;
+  std::vector<double> lower, upper;
   static double Call(unsigned n, const double* x, double* /*grad*/, void* data) {
     const auto* self = static_cast<const BoxObjective*>(data);
-    Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x, n).cwiseMax(0.0).cwiseMin(1.0);
+    Eigen::VectorXd point = Eigen::Map<const Eigen::VectorXd>(x, n);
+    for (unsigned i = 0; i < n; ++i) point[i] = std::clamp(point[i], self->lower[i], self->upper[i]);
     const double value = (*self->f)(point);
     return std::isfinite(value) ? value : -1e300;
   }
@@ -48,22 +50,24 @@ double RunNlopt(nlopt_algorithm algorithm, BoxObjective& objective, std::vector<
   const auto n = static_cast<unsigned>(objective.dimension);
   nlopt_opt opt = nlopt_create(algorithm, n);
   if (opt == nullptr) throw std::runtime_error("nlopt_create failed (out of memory)");
-  const std::vector<double> lower(n, 0.0), upper(n, 1.0);
-  nlopt_set_lower_bounds(opt, lower.data());
-  nlopt_set_upper_bounds(opt, upper.data());
+  nlopt_set_lower_bounds(opt, objective.lower.data());
+  nlopt_set_upper_bounds(opt, objective.upper.data());
   nlopt_set_max_objective(opt, &BoxObjective::Call, &objective);
   nlopt_set_maxeval(opt, evaluations);
   if (algorithm == NLOPT_LN_BOBYQA) {
     nlopt_set_xtol_abs1(opt, 1e-7);
     // The trust region starts at a tenth of the box, or less near a face.
     std::vector<double> step(n);
-    for (unsigned i = 0; i < n; ++i) step[i] = std::max(1e-4, std::min({0.1, x[i], 1.0 - x[i]}));
+    for (unsigned i = 0; i < n; ++i) {
+      const double width = objective.upper[i] - objective.lower[i];
+      step[i] = std::max(1e-4 * width, std::min({0.1 * width, x[i] - objective.lower[i], objective.upper[i] - x[i]}));
+    }
     nlopt_set_initial_step(opt, step.data());
   }
   double value = -std::numeric_limits<double>::infinity();
   nlopt_optimize(opt, x.data(), &value);  // any stop leaves x at the best seen
   nlopt_destroy(opt);
-  for (double& v : x) v = std::clamp(v, 0.0, 1.0);
+  for (unsigned i = 0; i < n; ++i) x[i] = std::clamp(x[i], objective.lower[i], objective.upper[i]);
   return BoxObjective::Call(n, x.data(), nullptr, &objective);
 }
 
@@ -85,16 +89,32 @@ double UpperConfidenceBound(double mean, double sd, double kappa) { return mean 
 Eigen::VectorXd MaximizeInBox(const std::function<double(const Eigen::VectorXd&)>& f, int dimension,
                               const std::vector<Eigen::VectorXd>& local_starts, const MaximizerOptions& options,
                               double* value) {
-  if (dimension < 1) throw std::invalid_argument("MaximizeInBox: dimension " + std::to_string(dimension) + " < 1");
+  return MaximizeInBox(f, Eigen::VectorXd::Zero(dimension), Eigen::VectorXd::Ones(dimension), local_starts, options,
+                       value);
+}
+
+Eigen::VectorXd MaximizeInBox(const std::function<double(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& lower,
+                              const Eigen::VectorXd& upper, const std::vector<Eigen::VectorXd>& local_starts,
+                              const MaximizerOptions& options, double* value) {
+  const auto dimension = static_cast<int>(lower.size());
+  if (dimension < 1 || upper.size() != lower.size() || !((upper - lower).array() > 0.0).all()) {
+    throw std::invalid_argument("MaximizeInBox: dimension " + std::to_string(dimension) +
+                                " < 1 or bounds of the wrong size or empty");
+  }
   const int global = options.global_evaluations > 0 ? options.global_evaluations : std::min(2000, 150 * dimension);
   const int local = options.local_evaluations > 0 ? options.local_evaluations : 40 * dimension + 40;
-  BoxObjective objective{&f, dimension};
-  std::vector<double> x(static_cast<std::size_t>(dimension), 0.5);
+  BoxObjective objective{&f, dimension, std::vector<double>(lower.data(), lower.data() + dimension),
+                         std::vector<double>(upper.data(), upper.data() + dimension)};
+  std::vector<double> x(static_cast<std::size_t>(dimension));
+  for (int i = 0; i < dimension; ++i) x[static_cast<std::size_t>(i)] = 0.5 * (lower[i] + upper[i]);
   double best_value = RunNlopt(NLOPT_GN_DIRECT_L, objective, x, global);
   std::vector<std::vector<double>> starts = {x};
   for (const Eigen::VectorXd& s : local_starts) {
     if (s.size() != dimension) throw std::invalid_argument("MaximizeInBox: a local start of the wrong size");
     starts.emplace_back(s.data(), s.data() + s.size());
+    for (int i = 0; i < dimension; ++i) {
+      starts.back()[static_cast<std::size_t>(i)] = std::clamp(s[i], lower[i], upper[i]);
+    }
   }
   std::vector<double> best = x;
   for (std::vector<double>& start : starts) {

@@ -39,6 +39,12 @@ Eigen::VectorXd MaximizeInBox(const std::function<double(const Eigen::VectorXd&)
                               const std::vector<Eigen::VectorXd>& local_starts, const MaximizerOptions& options,
                               double* value = nullptr);
 
+/// MaximizeInBox over the box [lower, upper] inside the unit box (a trust
+/// region); local starts outside it are moved onto it.
+Eigen::VectorXd MaximizeInBox(const std::function<double(const Eigen::VectorXd&)>& f, const Eigen::VectorXd& lower,
+                              const Eigen::VectorXd& upper, const std::vector<Eigen::VectorXd>& local_starts,
+                              const MaximizerOptions& options, double* value = nullptr);
+
 /// `n` points of a Latin hypercube in [0, 1]^d (each axis's n strata hit
 /// once, a uniform point within each), the best of `tries` by the smallest
 /// pairwise distance (maximin). Deterministic for `rng`'s state.

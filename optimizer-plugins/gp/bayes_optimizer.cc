@@ -22,12 +22,29 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 BayesianOptimizer::BayesianOptimizer(BayesOptions options, std::uint64_t seed)
     : options_(options), rng_(seed), model_(options.dimension, options.priors, options.periodic) {
+  side_ = options_.trust_region;
   if (!(options_.kappa >= 0.0) || options_.fit_restarts < 0 || options_.max_model_points < 0 ||
-      options_.max_model_points == 1) {
+      options_.max_model_points == 1 || !(options_.trust_region >= 0.0 && options_.trust_region <= 1.0)) {
     throw std::invalid_argument("bayesian optimizer: kappa " + std::to_string(options_.kappa) + ", fit restarts " +
-                                std::to_string(options_.fit_restarts) + " or max model points " +
-                                std::to_string(options_.max_model_points) + " is invalid");
+                                std::to_string(options_.fit_restarts) + ", max model points " +
+                                std::to_string(options_.max_model_points) + " or trust region " +
+                                std::to_string(options_.trust_region) + " is invalid");
   }
+}
+
+std::vector<Eigen::VectorXd> BayesianOptimizer::InitialDesign(int n, const Eigen::VectorXd& center) {
+  std::vector<Eigen::VectorXd> design = InitialDesign(n);
+  if (options_.trust_region <= 0.0) return design;
+  if (center.size() != options_.dimension) throw std::invalid_argument("bayesian optimizer: a centre of the wrong size");
+  const double side = options_.trust_region;
+  for (Eigen::VectorXd& x : design) {
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      // The region keeps its side against a face: shifted inside, not cut.
+      const double lo = std::clamp(center[i] - 0.5 * side, 0.0, 1.0 - side);
+      x[i] = std::clamp(lo + side * x[i], 0.0, 1.0);
+    }
+  }
+  return design;
 }
 
 std::vector<Eigen::VectorXd> BayesianOptimizer::InitialDesign(int n) {
@@ -79,6 +96,28 @@ Eigen::VectorXd BayesianOptimizer::FarthestRandomPoint(const std::vector<Eigen::
     }
   }
   return best;
+}
+
+void BayesianOptimizer::UpdateTrustRegion(double best, int q) {
+  if (!std::isnan(best_at_last_ask_)) {
+    if (best > best_at_last_ask_ + 1e-3 * std::abs(best_at_last_ask_)) {
+      ++improving_;
+      stalled_ = 0;
+    } else {
+      ++stalled_;
+      improving_ = 0;
+    }
+  }
+  best_at_last_ask_ = best;
+  const int patience = static_cast<int>(std::ceil(std::max(4.0, static_cast<double>(options_.dimension)) / q));
+  if (improving_ >= 3) {
+    side_ = std::min(1.0, 2.0 * side_);
+    improving_ = 0;
+  } else if (stalled_ >= patience) {
+    side_ *= 0.5;
+    stalled_ = 0;
+    if (side_ < 1.0 / 128.0) side_ = options_.trust_region;
+  }
 }
 
 std::vector<std::size_t> BayesianOptimizer::ModelPoints(const std::vector<double>& values) const {
@@ -142,6 +181,23 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::Ask(int q) {
   model_.Fit(rng_, options_.fit_restarts);
   last_fit_seconds_ = Seconds(fit_started);
 
+  // The search box: the trust region around the best point, or the whole box.
+  Eigen::VectorXd lower = Eigen::VectorXd::Zero(options_.dimension), upper = Eigen::VectorXd::Ones(options_.dimension);
+  if (options_.trust_region > 0.0) {
+    int best_index = 0;
+    for (int i = 1; i < n; ++i) {
+      if (y[i] > y[best_index]) best_index = i;
+    }
+    UpdateTrustRegion(y[best_index], q);
+    const Eigen::VectorXd l = model_.hyperparameters().log_lengthscales.array().exp();
+    const Eigen::VectorXd weights = l / std::exp(l.array().log().mean());  // geometric mean 1
+    for (int i = 0; i < options_.dimension; ++i) {
+      lower[i] = std::clamp(x(best_index, i) - 0.5 * side_ * weights[i], 0.0, 1.0);
+      upper[i] = std::clamp(x(best_index, i) + 0.5 * side_ * weights[i], 0.0, 1.0);
+      if (!(upper[i] - lower[i] > 1e-9)) upper[i] = std::min(1.0, lower[i] + 1e-9), lower[i] = upper[i] - 1e-9;
+    }
+  }
+
   GaussianProcess believer = model_;
   for (int k = 0; k < q; ++k) {
     // Incumbent: the best posterior mean at a point of the data (noisy EI);
@@ -161,7 +217,7 @@ std::vector<Eigen::VectorXd> BayesianOptimizer::Ask(int q) {
     }
     const std::vector<Eigen::VectorXd> starts = {x.row(incumbent_index).transpose(), x.row(best_observed).transpose()};
     Eigen::VectorXd next = MaximizeInBox(
-        [&](const Eigen::VectorXd& p) { return Acquire(believer, p, incumbent); }, options_.dimension, starts,
+        [&](const Eigen::VectorXd& p) { return Acquire(believer, p, incumbent); }, lower, upper, starts,
         options_.maximizer);
     if (!IsNew(next, taken)) next = FarthestRandomPoint(taken);
     taken.push_back(next);

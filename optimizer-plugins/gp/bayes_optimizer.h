@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -39,6 +40,12 @@ struct BayesOptions {
   /// Inputs that are angles over one whole period of the box (empty: none);
   /// see GaussianProcess.
   std::vector<bool> periodic;
+  /// Initial side of a trust region (TuRBO, Eriksson et al. 2019), as a
+  /// fraction of the box; 0: proposals come from the whole box. The region
+  /// is centred on the best point, stretched along the fitted length scales,
+  /// doubled after 3 improving proposals in a row, halved after
+  /// max(4, dimension) proposals without, and reset to this side below 1/128.
+  double trust_region = 0.0;
 };
 
 /// Sequential model-based optimization. Not thread-safe (one caller).
@@ -50,6 +57,9 @@ class BayesianOptimizer {
 
   /// `n` points of a seeded maximin Latin hypercube (the design without a prior).
   std::vector<Eigen::VectorXd> InitialDesign(int n);
+  /// The same inside the initial trust region around `center` (the whole box
+  /// without a trust region): a design near a known good point.
+  std::vector<Eigen::VectorXd> InitialDesign(int n, const Eigen::VectorXd& center);
 
   /// Records that `x` (in the unit box) gave `value`. A NaN or infinite
   /// value is a failed evaluation: it counts as the worst finite value seen
@@ -69,6 +79,8 @@ class BayesianOptimizer {
   int observations() const { return static_cast<int>(values_.size()); }
   /// Failed (non-finite) observations among them.
   int failures() const { return failures_; }
+  /// The trust region's current side (1 without one).
+  double trust_region_side() const { return options_.trust_region > 0.0 ? side_ : 1.0; }
   /// Wall seconds of the last hyper-parameter fit.
   double last_fit_seconds() const { return last_fit_seconds_; }
   /// Wall seconds of the last Ask (fit and acquisition maximization).
@@ -76,6 +88,7 @@ class BayesianOptimizer {
 
  private:
   std::vector<std::size_t> ModelPoints(const std::vector<double>& values) const;
+  void UpdateTrustRegion(double best, int q);
   double Acquire(const GaussianProcess& gp, const Eigen::VectorXd& x, double incumbent) const;
   bool IsNew(const Eigen::VectorXd& x, const std::vector<Eigen::VectorXd>& others) const;
   Eigen::VectorXd FarthestRandomPoint(const std::vector<Eigen::VectorXd>& others);
@@ -86,6 +99,9 @@ class BayesianOptimizer {
   std::vector<Eigen::VectorXd> points_;
   std::vector<double> values_;  // as told; non-finite = failed
   int failures_ = 0;
+  double side_ = 1.0;               // trust region
+  int improving_ = 0, stalled_ = 0;  // proposals in a row with / without improvement
+  double best_at_last_ask_ = std::numeric_limits<double>::quiet_NaN();
   double last_fit_seconds_ = 0.0;
   double last_ask_seconds_ = 0.0;
 };

@@ -119,7 +119,7 @@ TEST_F(BayesOptTest, ANonFiniteValueDoesNotPoisonTheRun) {
     static const std::map<std::string, std::string> fields = {
         {"max_evaluations", "24"}, {"initial_points", "0"}, {"include_start", "true"}, {"acquisition", "ei"},
         {"kappa", "2"},           {"batch", "2"},          {"fit_restarts", "2"},     {"noise_floor", "1e-6"},
-        {"max_model_points", "300"}, {"periodic_phases", "true"}};
+        {"max_model_points", "300"}, {"periodic_phases", "true"}, {"trust_region", "0"}};
     const auto it = fields.find(name);
     if (it == fields.end()) return YAMOR_NOT_FOUND;
     *value = it->second.c_str();

@@ -131,6 +131,31 @@ TEST(BayesianOptimizerTest, TheModelKeepsTheBestHalfAndTheMostRecentPoints) {
   EXPECT_EQ(model.inputs().row(19).transpose(), design.back());  // the latest is in, last
 }
 
+TEST(BayesianOptimizerTest, ATrustRegionStartsAroundTheCenterAndAdapts) {
+  BayesianOptimizer bo({.dimension = 2, .trust_region = 0.2}, 8);
+  // Near a face the region is shifted inside, keeping its side.
+  for (const Eigen::VectorXd& x : bo.InitialDesign(6, Eigen::Vector2d(0.5, 0.95))) {
+    EXPECT_GE(x[0], 0.4);
+    EXPECT_LE(x[0], 0.6);
+    EXPECT_GE(x[1], 0.8);
+    EXPECT_LE(x[1], 1.0);
+    bo.Tell(x, NegBranin(x));
+  }
+  // A bowl whose top is far outside the first region: the region walks and
+  // grows there, and the run still finds it.
+  const auto bowl = [](const Eigen::VectorXd& x) { return -(x - Eigen::Vector2d(0.1, 0.2)).squaredNorm(); };
+  BayesianOptimizer walk({.dimension = 2, .trust_region = 0.2}, 8);
+  for (const Eigen::VectorXd& x : walk.InitialDesign(4, Eigen::Vector2d(0.8, 0.8))) walk.Tell(x, bowl(x));
+  double best = -1e300;
+  for (int k = 0; k < 30; ++k) {
+    const Eigen::VectorXd x = walk.Ask(1).front();
+    best = std::max(best, bowl(x));
+    walk.Tell(x, bowl(x));
+  }
+  EXPECT_GT(best, -1e-4);
+  EXPECT_THROW(BayesianOptimizer({.dimension = 2, .trust_region = 1.5}, 1), std::invalid_argument);
+}
+
 TEST(BayesianOptimizerTest, RefusesBadArguments) {
   BayesianOptimizer bo({.dimension = 2}, 1);
   EXPECT_THROW(bo.Tell(Eigen::Vector3d(0.1, 0.1, 0.1), 1.0), std::invalid_argument);
