@@ -11,7 +11,8 @@
 // batch, then proposals from the trust region around the best point until
 // the budget; phases over a whole turn wrap around in the model. Both were
 // measured on the quadruped (docs/optimizers.md): without them the global
-// model, fitted to tens of walks in 7 dimensions, trailed simplex by a third.
+// model, fitted to tens of walks in 7 dimensions, trailed simplex (4.30
+// against 7.26 cm/s after 25 walks).
 // The search runs in normalized coordinates (each range mapped to [0, 1]).
 // Constrained parameters never reach a plugin: the framework applies the
 // configuration's <constrain> rules to every candidate. A non-finite value
