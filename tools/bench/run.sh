@@ -10,7 +10,7 @@
 # MuJoCo (when the venv has mujoco), and yamor-film-bench the cost of
 # a filmed Evaluate through a real yamord (when ffmpeg is installed).
 set -euo pipefail
-plain_programs=" host_bench pool_bench serial_bench render_bench tracker_bench physics_accuracy "
+plain_programs=" host_bench pool_bench serial_bench render_bench tracker_bench physics_accuracy gp_bench "
 if [ $# -lt 1 ]; then echo "usage: $0 BUILD_DIR [extra benchmark flags]" >&2; exit 2; fi
 build="$1"; shift
 root="$(cd "$(dirname "$0")/../.." && pwd)"

@@ -70,6 +70,8 @@ VARIANTS = [
             (("line_search", "brent"), ("direction_order", "statistics"))),
     Variant("pso", "pso"),
     Variant("cmaes", "cmaes"),
+    Variant("bayesopt", "bayesopt"),
+    Variant("bayesopt-global", "bayesopt", (("trust_region", "0"), ("periodic_phases", "false"))),
     Variant("simplex", "simplex"),
     Variant("random", "random"),
 ]
