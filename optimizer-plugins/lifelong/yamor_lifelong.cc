@@ -22,7 +22,6 @@
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
-#include "optimizer-plugins/framework/host_rpc.h"
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/progress.h"
 #include "optimizer-plugins/lifelong/daemon_port.h"
@@ -276,7 +275,7 @@ int main(int argc, char** argv) {
     DaemonPort port(address.front(), port_options);
     std::optional<ScenarioPlayer> player;
     if (scenario) {
-      player.emplace(*scenario, port.stub(), port.rpc_deadline(), [&](double t, const ScenarioChange& c) {
+      player.emplace(*scenario, port.host(), port.rpc_deadline(), [&](double t, const ScenarioChange& c) {
         Log().info("scenario: {} at {} s", c.Describe(), FormatRounded(t));
         log.Event({.time = t,
                    .kind = "scenario_change",
@@ -293,15 +292,7 @@ int main(int argc, char** argv) {
       v1::RenderFrameRequest request;
       request.set_width(640);
       request.set_height(480);
-      grpc::ClientContext context;
-      context.set_deadline(optimizer::DeadlineAfter(port.rpc_deadline()));
-      v1::RenderFrameResponse response;
-      const grpc::Status status = port.stub().RenderFrame(&context, request, &response);
-      if (!status.ok()) {
-        throw Error(static_cast<StatusCode>(status.error_code()),
-                    "RenderFrame: " + optimizer::DescribeStatus(status));
-      }
-      return response.png();
+      return port.host().Call(&v1::Host::Stub::RenderFrame, request, "RenderFrame").png();
     });
     SessionRelearner relearner(port, relearn);
     LifeCycle cycle(port, relearner, db, framing, life);
