@@ -3,9 +3,6 @@
 // deadline, one that is not there, cancellation, and the stream helpers.
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -17,12 +14,14 @@
 #include "common/status.h"
 #include "optimizer-plugins/framework/host_rpc.h"
 #include "tests/support/code_of.h"
+#include "tests/support/unused_port.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::client {
 namespace {
 
 using ::yamor::testing::CodeOf;
+using ::yamor::testing::UnusedPort;
 using google::protobuf::Empty;
 using Stub = v1::Host::Stub;
 
@@ -90,19 +89,6 @@ class FakeServer {
   int port_ = 0;
   std::unique_ptr<grpc::Server> server_;
 };
-
-// A port nothing listens on (bound, then closed).
-int UnusedPort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
-  socklen_t length = sizeof address;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
-  close(fd);
-  return ntohs(address.sin_port);
-}
 
 bool Contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
