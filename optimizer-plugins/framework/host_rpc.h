@@ -2,8 +2,8 @@
 // place: credentials join ChannelOptions), a deadline on every call, and the
 // one rule that turns a failed call into a yamor::Error. Every C++ program
 // that talks to yamord (the host pool, the live evaluator, yamor-lifelong,
-// yamorctl, yamor-cpg-build, yamor-camapp, yamor-characterize) goes through
-// here; the library (yamor::host_client) needs only proto, gRPC and common.
+// yamorctl, yamor-cpg-build, yamor-camapp, yamor-characterize, the
+// benchmarks) goes through here; the library (yamor::host_client) needs only proto, gRPC and common.
 //
 // THE RULE: what a daemon's failure means to a caller.
 //   Codes about the request or the caller keep their code:
@@ -21,7 +21,11 @@
 //   ends with CANCELLED.
 //   The message is "yamord ADDRESS RPC: ORIGINAL_CODE: daemon's message".
 // A pool that can retry on another daemon (HostPool) retries everything but
-// IsCallerError's codes; that is its retry policy, not a second mapping.
+// IsCallerError's codes; that is its retry policy, not a second mapping. Its
+// many concurrent Evaluate calls and health checks use gRPC's callback API
+// on channels made here; what it throws comes from ToError.
+// yamorctl shows the daemon's own code as its exit status: it takes the raw
+// status (TryCall, TryStream) on purpose.
 //
 // Why the reverse direction is not here: host/service.h's ToGrpcStatus turns
 // a handler's exception into a status on the server side (anything not a
