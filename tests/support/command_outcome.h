@@ -18,6 +18,11 @@ struct CommandOutcome {
   std::string err;   ///< Its standard error.
 };
 
+/// True when `part` appears in `text` (a stream's contents).
+inline bool Contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
 /// `run(args, out, err)` with string streams.
 template <typename RunFunction>
 CommandOutcome RunInProcess(RunFunction&& run, const std::vector<std::string>& args) {

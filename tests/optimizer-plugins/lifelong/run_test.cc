@@ -22,6 +22,7 @@ namespace fs = std::filesystem;
 const std::string kSource = YAMOR_SOURCE_DIR;
 
 using ::yamor::testing::CommandOutcome;
+using ::yamor::testing::Contains;
 
 CommandOutcome RunCommand(const std::vector<std::string>& args) {
   return ::yamor::testing::RunInProcess(
@@ -29,9 +30,6 @@ CommandOutcome RunCommand(const std::vector<std::string>& args) {
       args);
 }
 
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
 
 class LifelongRunTest : public ::testing::Test {
  protected:

@@ -21,6 +21,7 @@ namespace fs = std::filesystem;
 const std::string kSource = YAMOR_SOURCE_DIR;
 
 using ::yamor::testing::CommandOutcome;
+using ::yamor::testing::Contains;
 
 CommandOutcome RunCommand(const std::vector<std::string>& args) {
   return ::yamor::testing::RunInProcess(
@@ -28,9 +29,6 @@ CommandOutcome RunCommand(const std::vector<std::string>& args) {
       args);
 }
 
-bool Contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
 
 TEST(OptimizeRunTest, HelpAndThePluginList) {
   const CommandOutcome help = RunCommand({"--help"});
