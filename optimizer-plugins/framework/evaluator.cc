@@ -1,10 +1,21 @@
 #include "optimizer-plugins/framework/evaluator.h"
 
+#include <spdlog/fmt/fmt.h>
+
 #include <chrono>
 
 #include "common/status.h"
 
 namespace yamor::optimizer {
+
+std::string FormatCandidate(const Candidate& candidate) {
+  std::string out = "{";
+  for (const auto& [name, value] : candidate.parameters) {
+    if (out.size() > 1) out += ", ";
+    out += fmt::format("{}={}", name, value);
+  }
+  return out + "}";
+}
 
 std::vector<Evaluation> FunctionEvaluator::EvaluateBatch(const std::vector<Candidate>& batch) {
   std::vector<Evaluation> out;

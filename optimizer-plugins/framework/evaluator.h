@@ -19,6 +19,9 @@ struct Candidate {
   std::vector<std::pair<std::string, double>> parameters;  ///< Name, value.
 };
 
+/// "{name=value, ...}" of a candidate, for error messages.
+std::string FormatCandidate(const Candidate& candidate);
+
 /// What one evaluation produced.
 struct Evaluation {
   double velocity = 0.0;     ///< [m/s] (thesis 6.2.1); 0 when diverged.

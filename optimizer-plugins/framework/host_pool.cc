@@ -33,6 +33,8 @@ namespace {
 
 namespace v1 = yamor::v1;
 using Clock = std::chrono::steady_clock;
+using client::DeadlineAfter;
+using client::DescribeStatus;
 
 // ---- Host lists --------------------------------------------------------------
 
@@ -409,7 +411,10 @@ std::unique_ptr<HostPool::Impl::HostState> HostPool::Impl::MakeHost(HostAddress 
   host->name = address.ToString();
   host->address = std::move(address);
   // Our own backoff decides when to retry a host.
-  host->channel = MakeHostChannel(host->name, options_.retry_initial, options_.retry_max);
+  // The pool's own backoff decides when a host is tried again.
+  host->channel = client::MakeChannel(host->name, {.reconnect_initial = options_.retry_initial,
+                                                   .reconnect_max = options_.retry_max,
+                                                   .own_connection = true});
   host->stub = v1::Host::NewStub(host->channel);
   host->generic = std::make_unique<grpc::GenericStub>(host->channel);
   host->next_check = Clock::now();
@@ -714,13 +719,11 @@ void HostPool::Impl::OnEvaluated(Call* raw, const grpc::Status& status) {
           --batch.remaining;
           ++host.completed;
           host.backoff = 0;
-        } else if (IsCallerError(status.error_code())) {
-          FinishBatchLocked(batch,
-                            Error(static_cast<StatusCode>(status.error_code()),
-                                  "host " + host.name + " refused candidate " +
-                                      FormatCandidate((*batch.candidates)[index]) + ": " +
-                                      status.error_message()),
-                            cancel);
+        } else if (const Error error = client::ToError(
+                       status, host.name,
+                       "Evaluate of candidate " + FormatCandidate((*batch.candidates)[index]));
+                   client::IsCallerError(error.code())) {
+          FinishBatchLocked(batch, error, cancel);
         } else {
           HostFailedLocked(host, DescribeStatus(status), std::move(call->work), cancel);
         }
@@ -1001,73 +1004,45 @@ FilmResult HostPool::Impl::FilmCandidate(const Candidate& candidate, const FilmO
   for (const HostAddress& address : order) {
     const std::string name = address.ToString();
     // A channel of its own: the pool's channels and their calls stay as they are.
-    const std::shared_ptr<grpc::Channel> channel =
-        MakeHostChannel(name, options_.retry_initial, options_.retry_max, kMaxFilmReplyBytes);
-    const std::unique_ptr<v1::Host::Stub> stub = v1::Host::NewStub(channel);
-    grpc::ClientContext context;
-    context.set_deadline(DeadlineAfter(deadline));
-    v1::EvaluateResponse response;
-    // Shared with the callback, which notifies under the lock: nothing it
-    // touches can be gone when this thread wakes and leaves.
-    struct Done {
-      std::mutex mu;
-      std::condition_variable cv;
-      bool ready = false;
-      grpc::Status status;
-    };
-    const auto done = std::make_shared<Done>();
+    client::HostClient host(name, deadline,
+                            {.reconnect_initial = options_.retry_initial,
+                             .reconnect_max = options_.retry_max,
+                             .own_connection = true,
+                             .max_receive_bytes = kMaxFilmReplyBytes});
     const Clock::time_point started = Clock::now();
-    stub->async()->Evaluate(&context, &request, &response, [done](grpc::Status status) {
-      std::lock_guard lock(done->mu);
-      done->status = std::move(status);
-      done->ready = true;
-      done->cv.notify_all();
-    });
-    bool cancel_sent = false;
-    grpc::Status status;
-    {
-      std::unique_lock lock(done->mu);
-      while (!done->cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return done->ready; })) {
-        if (!cancel_sent && cancelled) {
-          lock.unlock();
-          if (cancelled()) {
-            context.TryCancel();
-            cancel_sent = true;
-          }
-          lock.lock();
-        }
+    v1::EvaluateResponse response;
+    try {
+      response = host.Call(&v1::Host::Stub::Evaluate, request, "Evaluate (filming)",
+                           {.cancelled = cancelled});
+    } catch (const Error& e) {
+      if (e.code() == StatusCode::kCancelled) throw Error(StatusCode::kCancelled, "filming cancelled");
+      // A wrong request fails on every host; anything else may work on another.
+      if (client::IsCallerError(e.code())) {
+        throw Error(e.code(), "filming " + FormatCandidate(candidate) + ": " + e.what());
       }
-      status = done->status;
+      Log().warn("host pool: {} could not film the candidate: {}", name, e.what());
+      failures += (failures.empty() ? "" : "; ") + std::string(e.what());
+      continue;
     }
-    if (cancel_sent) throw Error(StatusCode::kCancelled, "filming cancelled");
-    if (status.ok()) {
-      FilmResult film;
-      Evaluation& e = film.evaluation;
-      e.velocity = response.velocity();
-      e.distance = response.distance();
-      e.diverged = response.diverged();
-      e.divergence = response.divergence();
-      e.host = name;
-      e.wall_seconds = response.wall_seconds() > 0
-                           ? response.wall_seconds()
-                           : std::chrono::duration<double>(Clock::now() - started).count();
-      film.frames.reserve(static_cast<std::size_t>(response.frames_size()));
-      for (v1::VideoFrame& frame : *response.mutable_frames()) {
-        film.frames.push_back(FilmFrame{
-            .time = frame.time(), .png = std::move(*frame.mutable_png()), .index = frame.index()});
-      }
-      film.mp4 = std::move(*response.mutable_mp4());
-      film.mp4_frames = static_cast<int>(response.mp4_frames());
-      film.video_note = response.video_note();
-      return film;
+    FilmResult film;
+    Evaluation& e = film.evaluation;
+    e.velocity = response.velocity();
+    e.distance = response.distance();
+    e.diverged = response.diverged();
+    e.divergence = response.divergence();
+    e.host = name;
+    e.wall_seconds = response.wall_seconds() > 0
+                         ? response.wall_seconds()
+                         : std::chrono::duration<double>(Clock::now() - started).count();
+    film.frames.reserve(static_cast<std::size_t>(response.frames_size()));
+    for (v1::VideoFrame& frame : *response.mutable_frames()) {
+      film.frames.push_back(FilmFrame{
+          .time = frame.time(), .png = std::move(*frame.mutable_png()), .index = frame.index()});
     }
-    if (IsCallerError(status.error_code())) {
-      throw Error(static_cast<StatusCode>(status.error_code()),
-                  "filming " + FormatCandidate(candidate) + " on " + name + ": " +
-                      status.error_message());
-    }
-    Log().warn("host pool: {} could not film the candidate: {}", name, DescribeStatus(status));
-    failures += (failures.empty() ? "" : "; ") + name + ": " + DescribeStatus(status);
+    film.mp4 = std::move(*response.mutable_mp4());
+    film.mp4_frames = static_cast<int>(response.mp4_frames());
+    film.video_note = response.video_note();
+    return film;
   }
   throw Error(StatusCode::kUnavailable,
               "no host could film " + FormatCandidate(candidate) +

@@ -28,6 +28,7 @@ namespace {
 namespace v1 = yamor::v1;
 using google::protobuf::Empty;
 using Clock = std::chrono::steady_clock;
+using client::HostClient;
 
 // Robot time left below this ends a measurement [s]: far below any physics
 // step, far above the rounding of summed sleeps.
@@ -71,54 +72,36 @@ struct TimeMode {
   double Rate() const { return simulated ? free_run : 1.0; }
 };
 
-// The daemon's caller errors (and UNIMPLEMENTED) keep their code; every
-// other failure means the daemon or its link is gone: kUnavailable.
-Error LiveError(const grpc::Status& status, const std::string& daemon, const std::string& what) {
-  const grpc::StatusCode code = status.error_code();
-  if (IsCallerError(code) || code == grpc::StatusCode::UNIMPLEMENTED) {
-    return Error(static_cast<StatusCode>(code),
-                 "live robot " + daemon + ": " + what + ": " + status.error_message());
-  }
-  return Error(StatusCode::kUnavailable,
-               "live robot " + daemon + " failed: " + what + ": " + DescribeStatus(status));
-}
+// Channels of the live evaluator: reconnect soon after a daemon comes back.
+constexpr client::ChannelOptions kLiveChannel{
+    .reconnect_initial = 0.1, .reconnect_max = 1.0, .own_connection = true};
 
 }  // namespace
 
 LivePreparation PrepareLiveRobot(const HostAddress& address, const std::string& config_xml,
                                  const std::string& source_name, double deadline) {
-  const std::string name = address.ToString();
-  auto stub = v1::Host::NewStub(MakeHostChannel(name, 0.1, 1.0));
-  auto call = [&](auto method, const auto& request, auto* response, const std::string& what) {
-    grpc::ClientContext context;
-    context.set_deadline(DeadlineAfter(deadline));
-    const grpc::Status status = ((*stub).*method)(&context, request, response);
-    if (!status.ok()) throw LiveError(status, name, what);
-  };
+  HostClient host(address.ToString(), deadline, kLiveChannel);
   LivePreparation done;
-  Empty empty;
   v1::LoadConfigRequest load;
   load.set_config_xml(config_xml);
   load.set_source_name(source_name);
-  call(&v1::Host::Stub::LoadConfig, load, &empty, "LoadConfig " + source_name);
-  v1::GetInfoResponse info;
-  call(&v1::Host::Stub::GetInfo, Empty(), &info, "GetInfo");
+  host.Call(&v1::Host::Stub::LoadConfig, load, "LoadConfig " + source_name);
+  const v1::GetInfoResponse info = host.Call(&v1::Host::Stub::GetInfo, Empty(), "GetInfo");
   done.backend = info.backend();
   if (!info.connected()) {
-    v1::ConnectRobotResponse connected;
-    call(&v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest(), &connected, "ConnectRobot");
+    const v1::ConnectRobotResponse connected =
+        host.Call(&v1::Host::Stub::ConnectRobot, v1::ConnectRobotRequest(), "ConnectRobot");
     done.connected_now = true;
     done.links = static_cast<int>(connected.links());
   } else {
-    v1::FlushResponse refreshed;
-    call(&v1::Host::Stub::Refresh, Empty(), &refreshed, "Refresh");
+    host.Call(&v1::Host::Stub::Refresh, Empty(), "Refresh");
   }
   v1::ControlMessageRequest control;
   control.set_uart(v1::SWITCH_ON);
   control.set_cpg(v1::SWITCH_ON);
   control.set_motors(v1::SWITCH_ON);
   control.set_all(true);
-  call(&v1::Host::Stub::SendControlMessage, control, &empty, "SendControlMessage");
+  host.Call(&v1::Host::Stub::SendControlMessage, control, "SendControlMessage");
   return done;
 }
 
@@ -131,19 +114,11 @@ struct LiveEvaluator::Impl {
   void RequestStop();
 
   // One unary call under the option's deadline plus `extra` seconds;
-  // RequestStop cancels it. Throws kCancelled once stopped; returns the
-  // call's status otherwise.
+  // RequestStop cancels it. Throws kCancelled once stopped, else the
+  // client's error naming `what`.
   template <typename Request, typename Response>
-  grpc::Status RawCall(grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
-                                                               Response*),
-                       const Request& request, Response* response, double extra = 0.0);
-  // RawCall that throws ErrorOf(status, what) on failure.
-  template <typename Request, typename Response>
-  Response Call(grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
-                                                        Response*),
-                const Request& request, const std::string& what, double extra = 0.0);
-  // LiveError naming this daemon.
-  Error ErrorOf(const grpc::Status& status, const std::string& what) const;
+  Response Call(HostClient::Unary<Request, Response> method, const Request& request,
+                const std::string& what, double extra = 0.0);
   [[noreturn]] void ThrowStopped() const;
 
   // Checks the robot is connected and reads how time advances.
@@ -163,13 +138,11 @@ struct LiveEvaluator::Impl {
 
   const std::string name;
   const LiveOptions options;
-  std::shared_ptr<grpc::Channel> channel;
-  std::unique_ptr<v1::Host::Stub> stub;
+  std::unique_ptr<HostClient> host;  // RequestStop cancels its calls
 
   std::mutex run_mu;  // one trial (or measurement) at a time: one robot
-  std::mutex call_mu;
-  std::condition_variable wake;              // RequestStop wakes wall-clock waits
-  grpc::ClientContext* active = nullptr;     // the call in flight; guarded by call_mu
+  std::mutex wake_mu;
+  std::condition_variable wake;  // RequestStop wakes wall-clock waits
   std::atomic<bool> stop{false};
   std::atomic<bool> simulated{false};
   std::atomic<long long> trials{0};
@@ -179,20 +152,16 @@ struct LiveEvaluator::Impl {
 
 LiveEvaluator::Impl::Impl(std::shared_ptr<grpc::Channel> channel_in, std::string name_in,
                           LiveOptions options_in)
-    : name(std::move(name_in)), options(options_in), channel(std::move(channel_in)) {
+    : name(std::move(name_in)), options(options_in) {
   CheckOption(options.settle_periods >= 0, "settle_periods", options.settle_periods, ">= 0");
   CheckOption(options.measure_periods > 0, "measure_periods", options.measure_periods, "> 0");
   CheckOption(options.sample_interval > 0, "sample_interval", options.sample_interval, "> 0");
   CheckOption(options.rpc_deadline > 0, "rpc_deadline", options.rpc_deadline, "> 0");
   CheckOption(options.max_period > 0, "max_period", options.max_period, "> 0");
+  std::shared_ptr<grpc::Channel> channel = std::move(channel_in);
   if (!channel) throw Error(StatusCode::kInvalidArgument, "live evaluator without a channel");
-  stub = v1::Host::NewStub(channel);
-  v1::GetInfoResponse info;
-  const grpc::Status status = RawCall(&v1::Host::Stub::GetInfo, Empty(), &info);
-  if (!status.ok()) {
-    throw Error(StatusCode::kUnavailable,
-                "live robot " + name + " is not reachable: " + DescribeStatus(status));
-  }
+  host = std::make_unique<HostClient>(std::move(channel), name, options.rpc_deadline);
+  const v1::GetInfoResponse info = Call(&v1::Host::Stub::GetInfo, Empty(), "GetInfo");
   if (!info.connected()) {
     throw Error(StatusCode::kFailedPrecondition,
                 "live robot " + name + " has no robot connected (backend " + info.backend() +
@@ -205,37 +174,15 @@ LiveEvaluator::Impl::Impl(std::shared_ptr<grpc::Channel> channel_in, std::string
 }
 
 template <typename Request, typename Response>
-grpc::Status LiveEvaluator::Impl::RawCall(
-    grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&, Response*),
-    const Request& request, Response* response, double extra) {
-  grpc::ClientContext context;
-  context.set_deadline(DeadlineAfter(options.rpc_deadline + extra));
-  {
-    std::lock_guard lock(call_mu);
+Response LiveEvaluator::Impl::Call(HostClient::Unary<Request, Response> method,
+                                   const Request& request, const std::string& what, double extra) {
+  if (stop.load()) ThrowStopped();
+  try {
+    return host->Call(method, request, what, {.deadline = options.rpc_deadline + extra});
+  } catch (const Error&) {
     if (stop.load()) ThrowStopped();
-    active = &context;
+    throw;
   }
-  const grpc::Status status = ((*stub).*method)(&context, request, response);
-  {
-    std::lock_guard lock(call_mu);
-    active = nullptr;
-  }
-  if (!status.ok() && stop.load()) ThrowStopped();
-  return status;
-}
-
-template <typename Request, typename Response>
-Response LiveEvaluator::Impl::Call(
-    grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&, Response*),
-    const Request& request, const std::string& what, double extra) {
-  Response response;
-  const grpc::Status status = RawCall(method, request, &response, extra);
-  if (!status.ok()) throw ErrorOf(status, what);
-  return response;
-}
-
-Error LiveEvaluator::Impl::ErrorOf(const grpc::Status& status, const std::string& what) const {
-  return LiveError(status, name, what);
 }
 
 void LiveEvaluator::Impl::ThrowStopped() const {
@@ -243,9 +190,9 @@ void LiveEvaluator::Impl::ThrowStopped() const {
 }
 
 void LiveEvaluator::Impl::RequestStop() {
-  std::lock_guard lock(call_mu);
+  std::lock_guard lock(wake_mu);
   stop.store(true);
-  if (active != nullptr) active->TryCancel();
+  host->Cancel();
   wake.notify_all();
 }
 
@@ -285,17 +232,15 @@ cpg::RobotConfig LiveEvaluator::Impl::ApplyLocked(const Candidate& candidate, lo
   }
 
   auto set = [&](const std::string& parameter, const cpg::ParameterName& parsed, double value) {
-    grpc::Status status;
-    google::protobuf::Empty reply;
+    const std::string what = which + ": parameter '" + parameter + "'";
     if (parsed.coupling) {
       v1::SetCouplingValueRequest request;
       request.set_from_id(static_cast<uint32_t>(parsed.from));
       request.set_to_id(static_cast<uint32_t>(parsed.to));
       request.set_value(value);
-      status = RawCall(parsed.coupling_field == cpg::CouplingField::kPhase
-                           ? &v1::Host::Stub::SetCouplingPhase
-                           : &v1::Host::Stub::SetCouplingWeight,
-                       request, &reply);
+      Call(parsed.coupling_field == cpg::CouplingField::kPhase ? &v1::Host::Stub::SetCouplingPhase
+                                                               : &v1::Host::Stub::SetCouplingWeight,
+           request, what);
     } else {
       v1::SetModuleValueRequest request;
       request.set_module_id(static_cast<uint32_t>(parsed.id));
@@ -308,9 +253,8 @@ cpg::RobotConfig LiveEvaluator::Impl::ApplyLocked(const Candidate& candidate, lo
         case cpg::ModuleField::kMinAngle: method = &v1::Host::Stub::SetModuleMinAngle; break;
         case cpg::ModuleField::kMaxAngle: method = &v1::Host::Stub::SetModuleMaxAngle; break;
       }
-      status = RawCall(method, request, &reply);
+      Call(method, request, what);
     }
-    if (!status.ok()) throw ErrorOf(status, which + ": parameter '" + parameter + "'");
   };
 
   // Oscillator and coupling values in the candidate's order; the limits of
@@ -366,7 +310,7 @@ void LiveEvaluator::Impl::Advance(double seconds, const TimeMode& mode) {
   }
   // A real robot, or a simulation in free run: robot time passes with the clock.
   const double wall = seconds / mode.Rate();
-  std::unique_lock lock(call_mu);
+  std::unique_lock lock(wake_mu);
   wake.wait_for(lock, std::chrono::duration<double>(wall), [this] { return stop.load(); });
   if (stop.load()) ThrowStopped();
 }
@@ -482,7 +426,8 @@ void LiveEvaluator::Impl::Apply(const Candidate& candidate) {
 // ---- LiveEvaluator ---------------------------------------------------------------
 
 LiveEvaluator::LiveEvaluator(const HostAddress& address, LiveOptions options)
-    : LiveEvaluator(MakeHostChannel(address.ToString(), 0.1, 1.0), address.ToString(), options) {}
+    : LiveEvaluator(client::MakeChannel(address.ToString(), kLiveChannel), address.ToString(),
+                    options) {}
 
 LiveEvaluator::LiveEvaluator(std::shared_ptr<grpc::Channel> channel, std::string name,
                              LiveOptions options)

@@ -56,9 +56,10 @@ struct LivePreparation {
 /// configuration) when GetInfo says no robot is connected, else Refresh
 /// (the whole configuration again); then SendControlMessage to all modules:
 /// UART, CPG and motors on (inactive modules and defective motors stay
-/// off, as the daemon rules). Each call has `deadline` seconds. Throws the
-/// daemon's code naming the call (kInvalidArgument for a configuration the
-/// world cannot hold), kUnavailable when the daemon is unreachable or gone.
+/// off, as the daemon rules). Each call has `deadline` seconds. A failed
+/// call throws by the rule of host_rpc.h, naming the call: the daemon's code
+/// for a caller error (kInvalidArgument for a configuration the world cannot
+/// hold), kUnavailable when the daemon is unreachable or gone.
 LivePreparation PrepareLiveRobot(const HostAddress& address, const std::string& config_xml,
                                  const std::string& source_name, double deadline = 60);
 
@@ -79,8 +80,9 @@ LivePreparation PrepareLiveRobot(const HostAddress& address, const std::string& 
 /// candidate's speed.N values where it sets them, the robot's current speeds
 /// otherwise. Evaluation::robot_seconds is the ElapsedTime a trial spent.
 ///
-/// Errors from EvaluateBatch and Measure: kCancelled after RequestStop;
-/// kUnavailable when the daemon or its link is gone (naming it);
+/// Errors from EvaluateBatch and Measure (a failed RPC by the rule of
+/// host_rpc.h): kCancelled after RequestStop; kUnavailable when the daemon
+/// or its link is gone (naming it);
 /// kFailedPrecondition when no robot is connected; the daemon's own code
 /// (kNotFound, kOutOfRange, kInvalidArgument) when it refuses a parameter,
 /// naming the candidate and the parameter (checked locally with the

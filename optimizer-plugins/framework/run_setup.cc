@@ -39,6 +39,18 @@ std::string ValueText(const std::string& path, const std::string& key, const tom
 
 }  // namespace
 
+std::map<std::string, std::string> ParseFieldSettings(const std::vector<std::string>& settings) {
+  std::map<std::string, std::string> set;
+  for (const std::string& kv : settings) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw Error(StatusCode::kInvalidArgument, "--set " + kv + ": expected KEY=VALUE");
+    }
+    set[kv.substr(0, eq)] = kv.substr(eq + 1);
+  }
+  return set;
+}
+
 Problem MakeProblem(const OptimizationConfig& config) {
   Problem problem;
   const std::vector<double> start = config.StartValues();

@@ -19,6 +19,11 @@ namespace yamor::optimizer {
 /// refers to `config`, which must outlive it.
 Problem MakeProblem(const OptimizationConfig& config);
 
+/// Plugin field values from repeated --set KEY=VALUE (yamor-optimize and
+/// yamor-lifelong); a later KEY wins. Throws kInvalidArgument naming an
+/// entry without '=' or with an empty KEY.
+std::map<std::string, std::string> ParseFieldSettings(const std::vector<std::string>& settings);
+
 /// One instance of a batch start (the thesis's BatchStart, D.2.2).
 struct BatchInstance {
   std::string name;                        ///< Results subfolder and log label.

@@ -15,19 +15,7 @@
 namespace yamor::lifelong {
 namespace {
 
-using Clock = std::chrono::system_clock;
-
-std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
-  return Clock::now() + std::chrono::milliseconds(static_cast<long long>(seconds * 1000));
-}
-
-// A failed RPC as a yamor::Error naming the call and the daemon. A deadline
-// passing means the daemon stopped answering: for the runner it is gone.
-[[noreturn]] void Throw(const grpc::Status& s, const std::string& what, const std::string& daemon) {
-  StatusCode code = static_cast<StatusCode>(s.error_code());
-  if (code == StatusCode::kDeadlineExceeded) code = StatusCode::kUnavailable;
-  throw Error(code, what + " on " + daemon + ": " + s.error_message());
-}
+using google::protobuf::Empty;
 
 // Kinds whose module_id field is meaningful (proto3 cannot tell 0 from unset).
 bool HasModule(const std::string& kind) {
@@ -45,8 +33,9 @@ DaemonPort::DaemonPort(const optimizer::HostAddress& address, DaemonPortOptions 
                                                   std::to_string(options_.accelerometer_samples) +
                                                   " is outside 1..16");
   }
-  channel_ = grpc::CreateChannel(name_, grpc::InsecureChannelCredentials());
-  stub_ = v1::Host::NewStub(channel_);
+  const std::shared_ptr<grpc::Channel> channel = client::MakeChannel(name_);
+  host_ = std::make_unique<client::HostClient>(channel, name_, options_.rpc_deadline);
+  watch_host_ = std::make_unique<client::HostClient>(channel, name_, options_.rpc_deadline);
   watch_ = std::thread([this] { WatchLoop(); });
 }
 
@@ -54,8 +43,8 @@ DaemonPort::~DaemonPort() {
   {
     std::lock_guard lock(events_mu_);
     shutdown_ = true;
-    if (watch_context_) watch_context_->TryCancel();
   }
+  watch_host_->Cancel();
   events_cv_.notify_all();
   watch_.join();
 }
@@ -63,21 +52,18 @@ DaemonPort::~DaemonPort() {
 void DaemonPort::WatchLoop() {
   double backoff = 0.2;
   while (true) {
-    auto context = std::make_shared<grpc::ClientContext>();
     {
       std::lock_guard lock(events_mu_);
       if (shutdown_) return;
-      watch_context_ = context;
     }
     bool got = false;
     try {
       v1::WatchStateRequest request;
       request.set_period(options_.watch_period);
-      auto reader = stub_->WatchState(context.get(), request);
-      v1::StateUpdate update;
-      while (reader->Read(&update)) {
+      // No deadline: the stream lasts as long as the daemon; the destructor cancels it.
+      watch_host_->TryStream(&v1::Host::Stub::WatchState, request, [&](const v1::StateUpdate& update) {
         got = true;
-        if (update.events_size() == 0) continue;
+        if (update.events_size() == 0) return true;
         std::lock_guard lock(events_mu_);
         for (const v1::StateEvent& e : update.events()) {
           events_.push_back(RobotEvent{.time = update.time(),
@@ -86,13 +72,12 @@ void DaemonPort::WatchLoop() {
                                        .detail = e.detail()});
         }
         events_cv_.notify_all();
-      }
-      reader->Finish();
+        return true;
+      });
     } catch (const std::exception& e) {
       Log().warn("lifelong: event stream of {}: {}", name_, e.what());
     }
     std::unique_lock lock(events_mu_);
-    watch_context_.reset();
     if (shutdown_) return;
     backoff = got ? 0.2 : std::min(backoff * 2, 2.0);
     events_cv_.wait_for(lock, std::chrono::milliseconds(static_cast<int>(backoff * 1000)),
@@ -112,22 +97,12 @@ void DaemonPort::RequestStop() {
 
 double DaemonPort::Now() {
   CheckStop();
-  grpc::ClientContext context;
-  context.set_deadline(DeadlineAfter(options_.rpc_deadline));
-  v1::ElapsedTimeResponse response;
-  const grpc::Status s = stub_->ElapsedTime(&context, google::protobuf::Empty(), &response);
-  if (!s.ok()) Throw(s, "ElapsedTime", name_);
-  return response.seconds();
+  return host_->Call(&v1::Host::Stub::ElapsedTime, Empty(), "ElapsedTime").seconds();
 }
 
 bool DaemonPort::Simulated() {
   if (!simulated_) {
-    grpc::ClientContext context;
-    context.set_deadline(DeadlineAfter(options_.rpc_deadline));
-    v1::GetInfoResponse response;
-    const grpc::Status s = stub_->GetInfo(&context, google::protobuf::Empty(), &response);
-    if (!s.ok()) Throw(s, "GetInfo", name_);
-    simulated_ = response.backend() == "simulation";
+    simulated_ = host_->Call(&v1::Host::Stub::GetInfo, Empty(), "GetInfo").backend() == "simulation";
   }
   return *simulated_;
 }
@@ -142,14 +117,14 @@ void DaemonPort::BeforeMotion() {
 
 optimizer::LiveEvaluator& DaemonPort::Live() {
   std::lock_guard lock(live_mu_);
-  if (!live_) live_ = std::make_unique<optimizer::LiveEvaluator>(channel_, name_, options_.live);
+  if (!live_) live_ = std::make_unique<optimizer::LiveEvaluator>(host_->channel(), name_, options_.live);
   if (stop_.load()) live_->RequestStop();
   return *live_;
 }
 
 std::unique_ptr<optimizer::LiveEvaluator> DaemonPort::NewLiveEvaluator() {
   CheckStop();
-  return std::make_unique<optimizer::LiveEvaluator>(channel_, name_, options_.live);
+  return std::make_unique<optimizer::LiveEvaluator>(host_->channel(), name_, options_.live);
 }
 
 Window DaemonPort::Measure(double periods) {
@@ -188,18 +163,15 @@ AccelReading DaemonPort::ReadAccelerometer() {
       return reading;
     }
   }
-  grpc::ClientContext context;
-  context.set_deadline(DeadlineAfter(options_.rpc_deadline));
   v1::GetAccelerometerRequest request;
   request.set_module_id(static_cast<uint32_t>(central_));
   request.set_samples(static_cast<uint32_t>(options_.accelerometer_samples));
   v1::GetAccelerometerResponse response;
-  const grpc::Status s = stub_->GetAccelerometer(&context, request, &response);
-  if (!s.ok()) {
-    if (s.error_code() == grpc::StatusCode::UNAVAILABLE || s.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
-      Throw(s, "GetAccelerometer", name_);
-    }
-    reading.error = "GetAccelerometer: " + s.error_message();
+  try {
+    response = host_->Call(&v1::Host::Stub::GetAccelerometer, request, "GetAccelerometer");
+  } catch (const Error& e) {
+    if (e.code() == StatusCode::kUnavailable) throw;  // the daemon is gone
+    reading.error = e.what();  // this robot cannot tell: no orientation
     return reading;
   }
   const int n = response.samples_size();
@@ -227,21 +199,17 @@ AccelReading DaemonPort::ReadAccelerometer() {
 
 std::pair<cpg::ModuleGraph, std::string> DaemonPort::Body() {
   CheckStop();
-  grpc::ClientContext context;
-  context.set_deadline(DeadlineAfter(options_.rpc_deadline));
-  v1::GetMorphologyResponse response;
-  const grpc::Status s = stub_->GetMorphology(&context, google::protobuf::Empty(), &response);
   std::string xml;
-  if (s.ok()) {
-    xml = response.morphology_xml();
-  } else if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED && !options_.morphology_xml.empty()) {
+  try {
+    xml = host_->Call(&v1::Host::Stub::GetMorphology, Empty(), "GetMorphology").morphology_xml();
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kUnimplemented) throw;
+    if (options_.morphology_xml.empty()) {
+      throw Error(StatusCode::kFailedPrecondition,
+                  name_ + " cannot tell the robot's body (" + e.what() +
+                      "); give the robot's morphology with --morphology");
+    }
     xml = options_.morphology_xml;  // a real robot: the body the user described
-  } else if (s.error_code() == grpc::StatusCode::UNIMPLEMENTED) {
-    throw Error(StatusCode::kFailedPrecondition,
-                name_ + " cannot tell the robot's body (" + s.error_message() +
-                    "); give the robot's morphology with --morphology");
-  } else {
-    Throw(s, "GetMorphology", name_);
   }
   const physics::Morphology morphology = physics::Morphology::Parse(xml, name_);
   central_ = morphology.central();
@@ -250,54 +218,26 @@ std::pair<cpg::ModuleGraph, std::string> DaemonPort::Body() {
 
 void DaemonPort::Walk(const std::string& config_xml) {
   CheckStop();
-  auto deadline = [&](grpc::ClientContext& c) { c.set_deadline(DeadlineAfter(options_.rpc_deadline)); };
-  {
-    grpc::ClientContext context;
-    deadline(context);
-    v1::LoadConfigRequest request;
-    request.set_config_xml(config_xml);
-    request.set_source_name("yamor-lifelong gait");
-    google::protobuf::Empty response;
-    const grpc::Status s = stub_->LoadConfig(&context, request, &response);
-    if (!s.ok()) Throw(s, "LoadConfig", name_);
-  }
-  bool connected = false;
-  {
-    grpc::ClientContext context;
-    deadline(context);
-    v1::GetInfoResponse response;
-    const grpc::Status s = stub_->GetInfo(&context, google::protobuf::Empty(), &response);
-    if (!s.ok()) Throw(s, "GetInfo", name_);
-    connected = response.connected();
-    simulated_ = response.backend() == "simulation";
-  }
-  if (connected) {
-    grpc::ClientContext context;
-    deadline(context);
-    v1::FlushResponse response;
-    const grpc::Status s = stub_->Flush(&context, google::protobuf::Empty(), &response);
-    if (!s.ok()) Throw(s, "Flush", name_);
+  v1::LoadConfigRequest load;
+  load.set_config_xml(config_xml);
+  load.set_source_name("yamor-lifelong gait");
+  host_->Call(&v1::Host::Stub::LoadConfig, load, "LoadConfig");
+  const v1::GetInfoResponse info = host_->Call(&v1::Host::Stub::GetInfo, Empty(), "GetInfo");
+  simulated_ = info.backend() == "simulation";
+  if (info.connected()) {
+    host_->Call(&v1::Host::Stub::Flush, Empty(), "Flush");
   } else {
-    grpc::ClientContext context;
-    context.set_deadline(DeadlineAfter(options_.rpc_deadline + 60));
-    v1::ConnectRobotRequest request;
-    request.set_link_timeout(options_.connect_timeout);
-    v1::ConnectRobotResponse response;
-    const grpc::Status s = stub_->ConnectRobot(&context, request, &response);
-    if (!s.ok()) Throw(s, "ConnectRobot", name_);
+    v1::ConnectRobotRequest connect;
+    connect.set_link_timeout(options_.connect_timeout);
+    host_->Call(&v1::Host::Stub::ConnectRobot, connect, "ConnectRobot",
+                {.deadline = options_.rpc_deadline + 60});
   }
-  {
-    grpc::ClientContext context;
-    deadline(context);
-    v1::ControlMessageRequest request;
-    request.set_uart(v1::SWITCH_ON);
-    request.set_cpg(v1::SWITCH_ON);
-    request.set_motors(v1::SWITCH_ON);
-    request.set_all(true);
-    google::protobuf::Empty response;
-    const grpc::Status s = stub_->SendControlMessage(&context, request, &response);
-    if (!s.ok()) Throw(s, "SendControlMessage", name_);
-  }
+  v1::ControlMessageRequest control;
+  control.set_uart(v1::SWITCH_ON);
+  control.set_cpg(v1::SWITCH_ON);
+  control.set_motors(v1::SWITCH_ON);
+  control.set_all(true);
+  host_->Call(&v1::Host::Stub::SendControlMessage, control, "SendControlMessage");
   // A fresh evaluator reads the new configuration's speeds.
   std::lock_guard lock(live_mu_);
   live_.reset();
@@ -308,11 +248,7 @@ Reattachment DaemonPort::Reattach(const std::string& config_xml, const std::func
   while (true) {
     if (stop()) throw Error(StatusCode::kCancelled, "stopped while waiting for " + name_);
     try {
-      grpc::ClientContext context;
-      context.set_deadline(DeadlineAfter(options_.rpc_deadline));
-      v1::GetInfoResponse info;
-      const grpc::Status s = stub_->GetInfo(&context, google::protobuf::Empty(), &info);
-      if (!s.ok()) Throw(s, "GetInfo", name_);
+      const v1::GetInfoResponse info = host_->Call(&v1::Host::Stub::GetInfo, Empty(), "GetInfo");
       simulated_.reset();
       central_ = -1;
       const bool restarted = !info.connected();

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "optimizer-plugins/framework/host_pool.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "optimizer-plugins/framework/live_evaluator.h"
 #include "optimizer-plugins/lifelong/robot_port.h"
 #include "yamor/v1/host.grpc.pb.h"
@@ -78,8 +79,8 @@ class DaemonPort final : public RobotPort {
 
   /// The daemon's address.
   const optimizer::HostAddress& address() const { return address_; }
-  /// The gRPC stub (for scenario changes and setup).
-  v1::Host::Stub& stub() { return *stub_; }
+  /// The client of the daemon (for scenario changes and setup).
+  client::HostClient& host() { return *host_; }
   /// Deadline of ordinary RPCs [s].
   double rpc_deadline() const { return options_.rpc_deadline; }
   /// True when the daemon runs a simulation (asked once per attachment).
@@ -93,8 +94,9 @@ class DaemonPort final : public RobotPort {
   optimizer::HostAddress address_;
   std::string name_;
   DaemonPortOptions options_;
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::Host::Stub> stub_;
+  std::unique_ptr<client::HostClient> host_;
+  // The event stream's client (same channel): the destructor cancels it alone.
+  std::unique_ptr<client::HostClient> watch_host_;
   std::function<bool(double)> before_motion_;
   std::function<void()> on_restart_;
   std::atomic<bool> stop_{false};
@@ -108,7 +110,6 @@ class DaemonPort final : public RobotPort {
   std::condition_variable events_cv_;
   std::vector<RobotEvent> events_;                    // guarded by events_mu_
   bool await_events_ = false;                         // guarded by events_mu_
-  std::shared_ptr<grpc::ClientContext> watch_context_;  // guarded by events_mu_
   bool shutdown_ = false;                             // guarded by events_mu_
   std::thread watch_;
 };

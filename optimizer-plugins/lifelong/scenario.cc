@@ -149,9 +149,6 @@ ScenarioChange ParseChange(const std::string& path, const fs::path& base, const 
   return c;
 }
 
-std::chrono::system_clock::time_point DeadlineAfter(double seconds) {
-  return std::chrono::system_clock::now() + std::chrono::milliseconds(static_cast<long long>(seconds * 1000));
-}
 
 }  // namespace
 
@@ -227,24 +224,18 @@ Scenario Scenario::Load(const std::string& path) {
   return s;
 }
 
-ScenarioPlayer::ScenarioPlayer(Scenario scenario, v1::Host::Stub& stub, double rpc_deadline,
+ScenarioPlayer::ScenarioPlayer(Scenario scenario, client::HostClient& host, double rpc_deadline,
                                std::function<void(double, const ScenarioChange&)> on_change)
-    : scenario_(std::move(scenario)), stub_(stub), deadline_(rpc_deadline), on_change_(std::move(on_change)) {}
+    : scenario_(std::move(scenario)), host_(host), deadline_(rpc_deadline), on_change_(std::move(on_change)) {}
 
 void ScenarioPlayer::Setup(const std::string& config_xml) {
-  grpc::ClientContext context;
-  context.set_deadline(DeadlineAfter(deadline_ + 30));
   v1::OpenSimulationRequest request;
   request.set_world(scenario_.world);
   request.set_morphology_xml(scenario_.morphology_xml);
   request.set_seed(scenario_.seed);
   request.set_config_xml(config_xml);
-  v1::OpenSimulationResponse response;
-  const grpc::Status s = stub_.OpenSimulation(&context, request, &response);
-  if (!s.ok()) {
-    throw Error(static_cast<StatusCode>(s.error_code()),
-                "OpenSimulation for scenario " + scenario_.path + ": " + s.error_message());
-  }
+  host_.Call(&v1::Host::Stub::OpenSimulation, request, "OpenSimulation for scenario " + scenario_.path,
+             {.deadline = deadline_ + 30});
   next_ = 0;  // a fresh world: the changes start over
 }
 
@@ -261,36 +252,35 @@ bool ScenarioPlayer::ApplyDue(double robot_time) {
 }
 
 void ScenarioPlayer::Apply(const ScenarioChange& c) {
-  grpc::ClientContext context;
-  context.set_deadline(DeadlineAfter(deadline_ + 60));
-  google::protobuf::Empty empty;
-  grpc::Status s;
+  const std::string what = scenario_.path + ":" + std::to_string(c.line) + ": " + c.Describe();
+  const client::CallOptions options{.deadline = deadline_ + 60};
+  const google::protobuf::Empty empty;
   if (c.action == "script") {
     v1::RunTransformationScriptRequest r;
     r.set_script_xml(c.script_xml);
-    s = stub_.RunTransformationScript(&context, r, &empty);
+    host_.Call(&v1::Host::Stub::RunTransformationScript, r, "RunTransformationScript (" + what + ")", options);
   } else if (c.action == "upside_down") {
-    s = stub_.TurnUpsideDown(&context, google::protobuf::Empty(), &empty);
+    host_.Call(&v1::Host::Stub::TurnUpsideDown, empty, "TurnUpsideDown (" + what + ")", options);
   } else if (c.action == "ground") {
     v1::SetGroundRequest r;
     if (c.friction) r.set_friction(*c.friction);
     if (c.slope) r.set_slope(*c.slope);
     if (c.slope_direction) r.set_slope_direction(*c.slope_direction);
-    s = stub_.SetGround(&context, r, &empty);
+    host_.Call(&v1::Host::Stub::SetGround, r, "SetGround (" + what + ")", options);
   } else if (c.action == "motor_defect") {
     v1::SetMotorDefectRequest r;
     r.set_module_id(static_cast<uint32_t>(c.module));
     r.set_defect(c.defect == "limp" ? v1::MOTOR_LIMP : c.defect == "stuck" ? v1::MOTOR_STUCK : v1::MOTOR_OK);
-    s = stub_.SetMotorDefect(&context, r, &empty);
+    host_.Call(&v1::Host::Stub::SetMotorDefect, r, "SetMotorDefect (" + what + ")", options);
   } else if (c.action == "module_defect") {
     v1::SetModuleDefectRequest r;
     r.set_module_id(static_cast<uint32_t>(c.module));
     r.set_defective(c.defective);
-    s = stub_.SetModuleDefect(&context, r, &empty);
+    host_.Call(&v1::Host::Stub::SetModuleDefect, r, "SetModuleDefect (" + what + ")", options);
   } else if (c.action == "disconnect") {
     v1::ModuleRequest r;
     r.set_module_id(static_cast<uint32_t>(c.module));
-    s = stub_.DisconnectModule(&context, r, &empty);
+    host_.Call(&v1::Host::Stub::DisconnectModule, r, "DisconnectModule (" + what + ")", options);
   } else if (c.action == "connect") {
     v1::ConnectModulesRequest r;
     r.set_from_id(static_cast<uint32_t>(c.module));
@@ -298,11 +288,7 @@ void ScenarioPlayer::Apply(const ScenarioChange& c) {
     r.set_to_id(static_cast<uint32_t>(c.to));
     r.set_to_connector(*Connector(c.to_connector));
     r.set_angle_degrees(c.angle);
-    s = stub_.ConnectModules(&context, r, &empty);
-  }
-  if (!s.ok()) {
-    throw Error(static_cast<StatusCode>(s.error_code()), scenario_.path + ":" + std::to_string(c.line) + ": " +
-                                                             c.Describe() + ": " + s.error_message());
+    host_.Call(&v1::Host::Stub::ConnectModules, r, "ConnectModules (" + what + ")", options);
   }
 }
 

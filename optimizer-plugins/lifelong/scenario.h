@@ -25,7 +25,7 @@
 #include <utility>
 #include <vector>
 
-#include "yamor/v1/host.grpc.pb.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 
 namespace yamor::lifelong {
 
@@ -74,9 +74,9 @@ struct Scenario {
 /// Thread safety: one thread at a time.
 class ScenarioPlayer {
  public:
-  /// `stub` outlives the player; `on_change` hears of every change made
+  /// `host` outlives the player; `on_change` hears of every change made
   /// (robot time, the change).
-  ScenarioPlayer(Scenario scenario, v1::Host::Stub& stub, double rpc_deadline,
+  ScenarioPlayer(Scenario scenario, client::HostClient& host, double rpc_deadline,
                  std::function<void(double, const ScenarioChange&)> on_change = {});
 
   /// Opens the scenario's world (OpenSimulation) with its seed and
@@ -85,8 +85,8 @@ class ScenarioPlayer {
   /// module this world has free (an inserted one): refused.
   void Setup(const std::string& config_xml);
   /// Makes every change due at `robot_time` that was not made yet; true when
-  /// it made one. Throws yamor::Error with the daemon's code naming the
-  /// change and its line.
+  /// it made one. A refused change throws yamor::Error by the rule of
+  /// host_rpc.h, naming the change and its line.
   bool ApplyDue(double robot_time);
   /// Changes not made yet.
   std::size_t pending() const { return scenario_.changes.size() - next_; }
@@ -97,7 +97,7 @@ class ScenarioPlayer {
   void Apply(const ScenarioChange& change);
 
   Scenario scenario_;
-  v1::Host::Stub& stub_;
+  client::HostClient& host_;
   double deadline_;
   std::function<void(double, const ScenarioChange&)> on_change_;
   std::size_t next_ = 0;

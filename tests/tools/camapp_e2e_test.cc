@@ -26,6 +26,7 @@
 #include "common/format.h"
 #include "physics/render/image.h"
 #include "tests/support/host_call.h"
+#include "tests/support/unused_port.h"
 #include "tests/support/yamord_process.h"
 #include "yamor/v1/host.grpc.pb.h"
 
@@ -48,19 +49,6 @@ std::filesystem::path TempDir() {
   std::string pattern = (std::filesystem::temp_directory_path() / "yamor-camapp-XXXXXX").string();
   if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
   return pattern;
-}
-
-// A loopback port nobody listens on now (the camera's, fixed across its restart).
-int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t length = sizeof address;
-  bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
-  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
-  close(fd);
-  return ntohs(address.sin_port);
 }
 
 // yamor-camapp filming the yamord on `yamord_port`, serving on `port`.
@@ -113,7 +101,7 @@ class CamAppEndToEndTest : public ::testing::Test {
     YamordProcess writer(kCamApp, {"--calibration-only", "--write-calibration", calibration_, "--led-height",
                                    FormatDouble(kLedHeight)});
     ASSERT_EQ(writer.WaitForExit(std::chrono::seconds(20)), 0);
-    camera_port_ = FreePort();
+    camera_port_ = ::yamor::testing::UnusedPort();  // fixed across the camera's restart
     yamord_ = std::make_unique<YamordProcess>(
         kYamord, std::vector<std::string>{"--listen", "127.0.0.1:0", "--log-level", "warn", "--led-tracker",
                                           "127.0.0.1:" + std::to_string(camera_port_), "--tracker-calibration",

@@ -47,6 +47,7 @@
 #include "host/worker_pool.h"
 #include "host/worlds.h"
 #include "host_bench_echo.grpc.pb.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::bench {
@@ -131,8 +132,7 @@ class Daemon {
         host::ServerOptions{.listen = "127.0.0.1:0",
                             .service = {.default_world = world.name,
                                         .default_morphology = morphology}});
-    stub_ = v1::Host::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(server_->port()),
-                                                  grpc::InsecureChannelCredentials()));
+    stub_ = v1::Host::NewStub(yamor::client::MakeChannel("127.0.0.1:" + std::to_string(server_->port())));
     grpc::ClientContext context;
     context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
     v1::ConnectRobotResponse connected;
@@ -168,9 +168,9 @@ class Daemon {
 };
 
 std::shared_ptr<grpc::Channel> Connect(int port) {
-  // Default channel arguments for every server, as a plain client uses.
-  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
-                                     grpc::InsecureChannelCredentials());
+  // The project's channel with default arguments for every server (the
+  // echo too), as a plain client uses.
+  auto channel = yamor::client::MakeChannel("127.0.0.1:" + std::to_string(port));
   if (!channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(10))) {
     throw std::runtime_error("cannot connect to 127.0.0.1:" + std::to_string(port));
   }

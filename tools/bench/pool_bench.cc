@@ -37,6 +37,7 @@
 
 #include "common/log.h"
 #include "optimizer-plugins/framework/host_pool.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::bench {
@@ -130,7 +131,7 @@ int main(int argc, char** argv) {
   settings.warmup = 8;
   settings.duration = 12;
 
-  auto channel = grpc::CreateChannel(host_a.ToString(), grpc::InsecureChannelCredentials());
+  auto channel = yamor::client::MakeChannel(host_a.ToString());
   auto stub = v1::Host::NewStub(channel);
   std::vector<double> direct_rate, pool1_rate, pool2_rate, overhead_share, overhead_ms, eval_ms, raw_share;
   yamor::optimizer::HostPool pool1({host_a}, settings);

@@ -27,10 +27,10 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <grpcpp/grpcpp.h>
 
 #include "common/log.h"
 #include "common/status.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "tools/camapp/camapp_server.h"
 #include "tools/camapp/camera_picture.h"
 #include "tools/camapp/emulator.h"
@@ -176,15 +176,11 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   CamAppServer server(CamAppServerOptions{
       .address = address, .port = port, .width = camera.width, .height = camera.height});
 
-  auto stub = v1::Host::NewStub(grpc::CreateChannel(yamord, grpc::InsecureChannelCredentials()));
-  PoseSource source = [&stub, &yamord] {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(2));
-    v1::RobotPositionResponse r;
-    const grpc::Status s = stub->SimulatedPosition(&context, google::protobuf::Empty(), &r);
-    if (!s.ok()) {
-      throw Error(static_cast<StatusCode>(s.error_code()), "yamord " + yamord + ": " + s.error_message());
-    }
+  // A pose is wanted within a frame or two; a picture may take longer.
+  client::HostClient host(yamord, 2.0);
+  PoseSource source = [&host] {
+    const v1::RobotPositionResponse r =
+        host.Call(&v1::Host::Stub::SimulatedPosition, google::protobuf::Empty(), "SimulatedPosition");
     const auto& q = r.orientation();
     Eigen::Quaterniond orientation(q.w(), q.x(), q.y(), q.z());
     if (orientation.norm() < 1e-9) orientation = Eigen::Quaterniond::Identity();  // a peer without it
@@ -193,7 +189,7 @@ int Run(int argc, char** argv, const sigset_t& signals) {
   Emulator emulator(options, server, std::move(source), truth.get());
   std::unique_ptr<PictureRecorder> pictures;
   if (!frames_folder.empty()) {
-    PinholeRenderer render = [&stub, &yamord](const PinholeRequest& request) {
+    PinholeRenderer render = [&host](const PinholeRequest& request) {
       v1::RenderFrameRequest ask;
       ask.mutable_camera()->set_kind(v1::CAMERA_TOP);
       ask.mutable_camera()->mutable_target()->set_x(request.target.x());
@@ -205,13 +201,8 @@ int Run(int argc, char** argv, const sigset_t& signals) {
       ask.set_height(static_cast<uint32_t>(request.height_px));
       ask.set_hide_labels(true);
       ask.set_hide_legend(true);
-      grpc::ClientContext context;
-      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-      v1::RenderFrameResponse r;
-      const grpc::Status s = stub->RenderFrame(&context, ask, &r);
-      if (!s.ok()) {
-        throw Error(static_cast<StatusCode>(s.error_code()), "yamord " + yamord + ": " + s.error_message());
-      }
+      const v1::RenderFrameResponse r =
+          host.Call(&v1::Host::Stub::RenderFrame, ask, "RenderFrame", {.deadline = 10});
       return std::pair{std::vector<uint8_t>(r.png().begin(), r.png().end()), r.time()};
     };
     pictures = std::make_unique<PictureRecorder>(emulator.camera(), frames_folder, frames_every, std::move(render));

@@ -1,7 +1,5 @@
 #include "tools/characterize/board_recorder.h"
 
-#include <grpcpp/grpcpp.h>
-
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -10,6 +8,7 @@
 
 #include "common/format.h"
 #include "common/status.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "yamor/v1/host.grpc.pb.h"
 
 namespace yamor::characterize {
@@ -19,27 +18,14 @@ constexpr int kReplySamples = 16;  // the most one ReadAccelerometer returns (do
 
 class Daemon {
  public:
-  Daemon(const BoardRecording& r)
-      : recording_(r),
-        stub_(v1::Host::NewStub(grpc::CreateChannel(r.host, grpc::InsecureChannelCredentials()))) {}
+  explicit Daemon(const BoardRecording& r) : recording_(r), host_(r.host, r.rpc_deadline) {}
 
   template <typename Request, typename Response>
-  Response Call(const char* name,
-                grpc::Status (v1::Host::Stub::*method)(grpc::ClientContext*, const Request&,
-                                                       Response*),
+  Response Call(const char* name, client::HostClient::Unary<Request, Response> method,
                 const Request& request, double extra_seconds = 0) {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() +
-                         std::chrono::duration_cast<std::chrono::milliseconds>(
-                             std::chrono::duration<double>(recording_.rpc_deadline + extra_seconds)));
-    Response response;
-    const grpc::Status status = ((*stub_).*method)(&context, request, &response);
-    if (!status.ok()) {
-      throw Error(static_cast<StatusCode>(status.error_code()),
-                  recording_.host + " " + name + " (module " +
-                      std::to_string(recording_.module_id) + "): " + status.error_message());
-    }
-    return response;
+    return host_.Call(method, request,
+                      std::string(name) + " (module " + std::to_string(recording_.module_id) + ")",
+                      {.deadline = recording_.rpc_deadline + extra_seconds});
   }
 
   std::vector<std::array<int, 3>> Read() {
@@ -54,7 +40,7 @@ class Daemon {
 
  private:
   const BoardRecording& recording_;
-  std::unique_ptr<v1::Host::Stub> stub_;
+  client::HostClient host_;
 };
 
 void Validate(const BoardRecording& r) {

@@ -27,8 +27,9 @@ struct BoardRecording {
 /// exactly the new samples, timed by the simulation; on a real robot the
 /// latest 16 are read every 16 sample periods of the wall clock and timed by
 /// the host's clock (a late reply can drop or repeat a few readings: say so in
-/// the lab notes). Throws yamor::Error with the daemon's code and message
-/// (naming the host and the module): kUnavailable when the daemon is gone,
+/// the lab notes). A failed call throws by the rule of
+/// optimizer-plugins/framework/host_rpc.h (naming the host and the module):
+/// kUnavailable when the daemon is gone,
 /// kFailedPrecondition when the board does not answer (UART off), kNotFound
 /// for an unknown module, kInvalidArgument for bad settings.
 std::vector<LoggedReading> RecordBoard(const BoardRecording& recording);

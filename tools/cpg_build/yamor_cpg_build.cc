@@ -10,13 +10,13 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <grpcpp/grpcpp.h>
 
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
 #include "cpg/problem.h"
 #include "host/worlds.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "physics/module_graph.h"
 #include "physics/morphology.h"
 #include "yamor/v1/host.grpc.pb.h"
@@ -32,33 +32,17 @@ struct Source {
 };
 
 Source FromDaemon(const std::string& address, double timeout_s) {
-  auto stub = yamor::v1::Host::NewStub(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
-  auto deadline = [&](grpc::ClientContext& ctx) {
-    ctx.set_deadline(std::chrono::system_clock::now() +
-                     std::chrono::milliseconds(static_cast<int64_t>(timeout_s * 1000)));
-  };
+  yamor::client::HostClient host(address, timeout_s);
   Source out;
-  {
-    grpc::ClientContext ctx;
-    deadline(ctx);
-    yamor::v1::GetMorphologyResponse response;
-    const grpc::Status s = stub->GetMorphology(&ctx, google::protobuf::Empty(), &response);
-    if (!s.ok()) {
-      throw Error(static_cast<StatusCode>(s.error_code()),
-                  "GetMorphology on " + address + ": " + s.error_message());
-    }
-    out.morphology = yamor::physics::Morphology::Parse(response.morphology_xml(), address);
-  }
-  {
-    grpc::ClientContext ctx;
-    deadline(ctx);
-    yamor::v1::SaveConfigResponse response;
-    const grpc::Status s = stub->SaveConfig(&ctx, google::protobuf::Empty(), &response);
-    if (s.ok() && !response.config_xml().empty()) {
-      out.config = yamor::cpg::ParseConfigXml(response.config_xml(), address);
-    } else if (!s.ok() && s.error_code() != grpc::StatusCode::FAILED_PRECONDITION) {
-      throw Error(static_cast<StatusCode>(s.error_code()), "SaveConfig on " + address + ": " + s.error_message());
-    }
+  const google::protobuf::Empty empty;
+  out.morphology = yamor::physics::Morphology::Parse(
+      host.Call(&yamor::v1::Host::Stub::GetMorphology, empty, "GetMorphology").morphology_xml(), address);
+  try {
+    const yamor::v1::SaveConfigResponse saved =
+        host.Call(&yamor::v1::Host::Stub::SaveConfig, empty, "SaveConfig");
+    if (!saved.config_xml().empty()) out.config = yamor::cpg::ParseConfigXml(saved.config_xml(), address);
+  } catch (const Error& e) {
+    if (e.code() != StatusCode::kFailedPrecondition) throw;  // no configuration loaded: none to keep
   }
   return out;
 }

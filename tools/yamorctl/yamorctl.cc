@@ -16,6 +16,7 @@
 #include <grpcpp/grpcpp.h>
 
 #include "common/status.h"
+#include "optimizer-plugins/framework/host_rpc.h"
 #include "physics/render/video.h"
 #include "tools/yamorctl/format.h"
 #include "tools/yamorctl/tracking.h"
@@ -65,8 +66,7 @@ struct GlobalOptions {
 };
 
 template <typename Request, typename Response>
-using UnaryMethod = grpc::Status (v1::Host::Stub::*)(grpc::ClientContext*, const Request&,
-                                                     Response*);
+using UnaryMethod = client::HostClient::Unary<Request, Response>;
 
 /// A usage-level problem found after parsing (bad file, bad "name=value").
 struct UsageError {
@@ -74,30 +74,25 @@ struct UsageError {
 };
 
 /// One command line's connection to the daemon plus its output streams.
+/// yamorctl reports the daemon's own code (its exit status), so it takes the
+/// client's raw statuses rather than its rule.
 /// Thread-safety: single-threaded (one per Run call).
 class DaemonConnection {
  public:
+  // Frames (snapshot, record) can be large PNGs: beyond gRPC's default 4 MB.
   DaemonConnection(const GlobalOptions& options, std::ostream& out, std::ostream& err)
       : options_(options),
         out_(out),
         err_(err),
-        channel_(grpc::CreateCustomChannel(options.host, grpc::InsecureChannelCredentials(),
-                                           ChannelArguments())),
-        stub_(v1::Host::NewStub(channel_)) {}
-
-  /// Frames (snapshot, record) can be large PNGs: beyond gRPC's default 4 MB.
-  static grpc::ChannelArguments ChannelArguments() {
-    grpc::ChannelArguments arguments;
-    arguments.SetMaxReceiveMessageSize(kMaxMessageBytes);
-    return arguments;
-  }
+        host_(options.host, Clamped(options.timeout), {.max_receive_bytes = kMaxMessageBytes}) {}
 
   std::ostream& out() { return out_; }
   std::ostream& err() { return err_; }
   bool json() const { return options_.json; }
-  v1::Host::Stub& stub() { return *stub_; }
+  /// The client of --host.
+  client::HostClient& host() { return host_; }
   /// The channel to --host (for services other than yamor.v1.Host).
-  const std::shared_ptr<grpc::Channel>& channel() const { return channel_; }
+  const std::shared_ptr<grpc::Channel>& channel() const { return host_.channel(); }
 
   /// Deadline of a call [s]: --timeout when given, else the default plus
   /// `work_seconds` (the time the call is expected to take).
@@ -107,11 +102,14 @@ class DaemonConnection {
     return options_.timeout + work;
   }
 
+  /// A deadline of `seconds` as a call takes it (at least 1 ms, at most ~3 years).
+  static double Clamped(double seconds) {
+    return std::isnan(seconds) ? kMaxDeadlineSeconds : std::clamp(seconds, 1e-3, kMaxDeadlineSeconds);
+  }
+
   /// Sets the deadline of `context` `seconds` from now.
   static void SetDeadline(grpc::ClientContext& context, double seconds) {
-    const double clamped = std::clamp(seconds, 1e-3, kMaxDeadlineSeconds);
-    context.set_deadline(std::chrono::system_clock::now() +
-                         std::chrono::microseconds(static_cast<int64_t>(clamped * 1e6)));
+    context.set_deadline(client::DeadlineAfter(Clamped(seconds)));
   }
 
   /// Runs a unary call with a deadline of `timeout` seconds; reports a
@@ -119,9 +117,7 @@ class DaemonConnection {
   template <typename Request, typename Response>
   int Call(UnaryMethod<Request, Response> method, const Request& request, Response* response,
            double timeout) {
-    grpc::ClientContext context;
-    SetDeadline(context, timeout);
-    return Report((stub_.get()->*method)(&context, request, response));
+    return Report(host_.TryCall(method, request, response, {.deadline = Clamped(timeout)}));
   }
 
   /// Prints "yamorctl: CODE: message" for a failed status; returns its code.
@@ -162,8 +158,7 @@ class DaemonConnection {
   GlobalOptions options_;
   std::ostream& out_;
   std::ostream& err_;
-  std::shared_ptr<grpc::Channel> channel_;
-  std::unique_ptr<v1::Host::Stub> stub_;
+  client::HostClient host_;
 };
 
 using Action = std::function<int(DaemonConnection&)>;
@@ -852,23 +847,19 @@ void AddWatch(CLI::App& app, Action& action, const GlobalOptions& global) {
     action = [a, &global](DaemonConnection& s) {
       v1::WatchStateRequest request;
       request.set_period(a->period);
-      grpc::ClientContext context;
+      client::CallOptions options;  // no deadline: until interrupted
       if (global.timeout_given || a->count > 0) {
-        DaemonConnection::SetDeadline(context, s.Timeout(static_cast<double>(a->count) * a->period));
+        options.deadline = DaemonConnection::Clamped(s.Timeout(static_cast<double>(a->count) * a->period));
       }
-      std::unique_ptr<grpc::ClientReader<v1::StateUpdate>> reader =
-          s.stub().WatchState(&context, request);
-      v1::StateUpdate update;
       uint64_t received = 0;
-      while (reader->Read(&update)) {
-        s.Print(update, FormatStateUpdate);
-        s.out().flush();
-        if (a->count > 0 && ++received >= a->count) {
-          context.TryCancel();
-          break;
-        }
-      }
-      const grpc::Status status = reader->Finish();
+      const grpc::Status status = s.host().TryStream(
+          &v1::Host::Stub::WatchState, request,
+          [&](const v1::StateUpdate& update) {
+            s.Print(update, FormatStateUpdate);
+            s.out().flush();
+            return !(a->count > 0 && ++received >= a->count);
+          },
+          options);
       if (a->count > 0 && received >= a->count) return 0;
       const int code = s.Report(status);
       if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
@@ -1043,33 +1034,30 @@ void AddRecord(CLI::App& app, Action& action) {
       request.set_watch(a->watch);
       // Drawing takes tens of milliseconds a frame; watching takes the world's time too.
       const double frames = std::isfinite(a->seconds * a->fps) ? a->seconds * a->fps : 0.0;
-      grpc::ClientContext context;
-      DaemonConnection::SetDeadline(context, s.Timeout(0.2 * frames + (a->watch ? a->seconds : 0.0)));
       std::unique_ptr<render::VideoWriter> writer;
       int received = 0;
       double first_time = 0, last_time = 0;
-      std::unique_ptr<grpc::ClientReader<v1::VideoFrame>> reader =
-          s.stub().RecordFrames(&context, request);
-      v1::VideoFrame frame;
+      grpc::Status status;
       try {
-        while (reader->Read(&frame)) {
-          if (!writer) {
-            writer = std::make_unique<render::VideoWriter>(
-                a->file, render::VideoOptions{.frame_rate = a->fps});
-            first_time = frame.time();
-          }
-          const std::string& png = frame.png();
-          writer->AddFrame({reinterpret_cast<const uint8_t*>(png.data()), png.size()});
-          last_time = frame.time();
-          ++received;
-        }
+        status = s.host().TryStream(
+            &v1::Host::Stub::RecordFrames, request,
+            [&](const v1::VideoFrame& frame) {
+              if (!writer) {
+                writer = std::make_unique<render::VideoWriter>(
+                    a->file, render::VideoOptions{.frame_rate = a->fps});
+                first_time = frame.time();
+              }
+              const std::string& png = frame.png();
+              writer->AddFrame({reinterpret_cast<const uint8_t*>(png.data()), png.size()});
+              last_time = frame.time();
+              ++received;
+              return true;
+            },
+            {.deadline = DaemonConnection::Clamped(s.Timeout(0.2 * frames + (a->watch ? a->seconds : 0.0)))});
       } catch (const Error& e) {
-        context.TryCancel();
-        reader->Finish();
         s.err() << "yamorctl: " << StatusCodeName(e.code()) << ": " << e.what() << "\n";
         return static_cast<int>(e.code());
       }
-      const grpc::Status status = reader->Finish();
       if (!status.ok()) {
         const int code = s.Report(status);
         if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED && a->watch) {

@@ -2,49 +2,20 @@
 // their deadline, a server shut down mid-batch, caller errors, all hosts
 // down, attempts exhausted, RequestStop and concurrent batches.
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <future>
 #include <numeric>
 
 #include "common/status.h"
 #include "tests/optimizer-plugins/host_pool/host_pool_test_util.h"
+#include "tests/support/unused_port.h"
 
 namespace yamor::optimizer {
 namespace {
 
 using namespace testing;  // NOLINT: the test helpers
+using ::yamor::testing::UnusedPort;
 using std::chrono::seconds;
-
-PoolOptions FastRetry() {
-  PoolOptions options;
-  options.health_timeout = 2;
-  options.retry_initial = 0.05;
-  options.retry_max = 0.2;
-  options.give_up_after = 30;
-  return options;
-}
-
-EvaluationSettings Settings() {
-  EvaluationSettings settings;
-  settings.warmup = 1;
-  settings.duration = 2;
-  settings.deadline_seconds = 20;
-  return settings;
-}
-
-// Every result is the fake's score of its own candidate.
-void ExpectScored(const std::vector<Candidate>& batch, const std::vector<Evaluation>& results) {
-  ASSERT_EQ(results.size(), batch.size());
-  for (std::size_t i = 0; i < batch.size(); ++i) {
-    EXPECT_EQ(results[i].velocity, Score(batch[i].parameters)) << "slot " << i;
-    EXPECT_EQ(results[i].distance, 2.0 * Score(batch[i].parameters)) << "slot " << i;
-    EXPECT_FALSE(results[i].diverged);
-    EXPECT_FALSE(results[i].host.empty());
-  }
-}
 
 long long TotalCompleted(const HostPool& pool) {
   long long total = 0;
@@ -63,26 +34,12 @@ Error BatchError(HostPool& pool, const std::vector<Candidate>& batch) {
   return Error(StatusCode::kOk, "");
 }
 
-// A port nothing listens on (bound, then closed).
-int UnusedPort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  address.sin_port = 0;
-  bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
-  socklen_t length = sizeof address;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
-  close(fd);
-  return ntohs(address.sin_port);
-}
-
 TEST(HostPoolFakeTest, SpreadsWorkAndReportsStatus) {
   FakeHost a, b;
   a.capacity = 2;
   b.capacity = 3;
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   EXPECT_EQ(pool.Capacity(), 5);
   const std::vector<Candidate> batch = MakeCandidates(20);
   const std::vector<Evaluation> results = EvaluateGuarded(pool, batch);
@@ -109,7 +66,7 @@ TEST(HostPoolFakeTest, FailedCallIsRetriedElsewhereAndTheHostRecovers) {
   good.capacity = 1;
   bad.fail_call = 2;
   FakeServer server_bad(&bad), server_good(&good);
-  HostPool pool({server_bad.address(), server_good.address()}, Settings(), FastRetry());
+  HostPool pool({server_bad.address(), server_good.address()}, FakeSettings(), FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(12);
   ExpectScored(batch, EvaluateGuarded(pool, batch));
   EXPECT_EQ(TotalCompleted(pool), 12) << "every slot scored once";
@@ -132,7 +89,7 @@ TEST(HostPoolFakeTest, CallPastItsDeadlineIsRetriedElsewhere) {
   good.capacity = 1;
   slow.hang_call = 1;
   FakeServer server_slow(&slow), server_good(&good);
-  EvaluationSettings settings = Settings();
+  EvaluationSettings settings = FakeSettings();
   settings.deadline_seconds = 0.5;
   HostPool pool({server_slow.address(), server_good.address()}, settings, FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(6);
@@ -151,7 +108,7 @@ TEST(HostPoolFakeTest, ServerShutDownMidBatchThenRestarted) {
   a.delay_ms = 40;
   b.delay_ms = 40;
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(24);
   auto result =
       std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch, seconds(30)); });
@@ -177,7 +134,7 @@ TEST(HostPoolFakeTest, ServerShutDownMidBatchThenRestarted) {
 TEST(HostPoolFakeTest, CallerErrorIsNotRetried) {
   FakeHost a, b;
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   std::vector<Candidate> batch = MakeCandidates(5);
   batch[3].parameters.emplace_back("foo.3", 0.25);
   const Error e = BatchError(pool, batch);
@@ -206,7 +163,7 @@ TEST(HostPoolFakeTest, CallerErrorWithCallsInFlightThenDestroyed) {
   for (int round = 0; round < 10; ++round) {
     std::vector<Candidate> batch = MakeCandidates(4, round);
     batch[3].parameters.emplace_back("foo.1", 1.0);
-    auto pool = std::make_unique<HostPool>(std::vector<HostAddress>{server.address()}, Settings(),
+    auto pool = std::make_unique<HostPool>(std::vector<HostAddress>{server.address()}, FakeSettings(),
                                            FastRetry());
     const Error e = BatchError(*pool, batch);
     EXPECT_EQ(e.code(), StatusCode::kInvalidArgument) << e.what();
@@ -222,7 +179,7 @@ TEST(HostPoolFakeTest, AllHostsDownGivesUp) {
   options.health_timeout = 1;
   options.give_up_after = 1;
   const auto start = Clock::now();
-  HostPool pool({{"127.0.0.1", UnusedPort()}, {"127.0.0.1", UnusedPort()}}, Settings(), options);
+  HostPool pool({{"127.0.0.1", UnusedPort()}, {"127.0.0.1", UnusedPort()}}, FakeSettings(), options);
   EXPECT_EQ(pool.Capacity(), 1);
   const Error e = BatchError(pool, MakeCandidates(3));
   EXPECT_EQ(e.code(), StatusCode::kUnavailable);
@@ -241,7 +198,7 @@ TEST(HostPoolFakeTest, AttemptsExhaustedNameTheCandidate) {
   FakeServer server(&broken);
   PoolOptions options = FastRetry();
   options.max_attempts = 3;
-  HostPool pool({server.address()}, Settings(), options);
+  HostPool pool({server.address()}, FakeSettings(), options);
   const Error e = BatchError(pool, {Candidate{{{"amplitude.2", 0.75}}}});
   EXPECT_EQ(e.code(), StatusCode::kUnavailable);
   EXPECT_NE(std::string(e.what()).find("amplitude.2=0.75"), std::string::npos) << e.what();
@@ -253,7 +210,7 @@ TEST(HostPoolFakeTest, RequestStopCancelsPromptly) {
   FakeHost hung;
   hung.hang_all = true;
   FakeServer server(&hung);
-  EvaluationSettings settings = Settings();
+  EvaluationSettings settings = FakeSettings();
   settings.deadline_seconds = 300;  // only the cancellation can end the hung calls in time
   HostPool pool({server.address()}, settings, FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(4);
@@ -283,7 +240,7 @@ TEST(HostPoolFakeTest, ConcurrentBatchesShareTheHosts) {
   b.delay_ms = 5;
   b.fail_call = 7;  // one failure among the concurrent traffic
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   std::vector<std::vector<Candidate>> batches;
   for (int t = 0; t < 3; ++t) batches.push_back(MakeCandidates(10, 100.0 * (t + 1)));
   std::vector<std::future<std::vector<Evaluation>>> results;
@@ -302,7 +259,7 @@ TEST(HostPoolFakeTest, HealthCheckDecidesWhenAHostIsUsed) {
   FakeHost a, b;
   FakeServer server_a(&a), server_b(&b, 0, /*health=*/false);
   server_a.SetServing(false);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   HostStatus s = StatusOf(pool, 0);
   EXPECT_FALSE(s.up) << "NOT_SERVING";
   EXPECT_NE(s.last_error.find("not serving"), std::string::npos) << s.last_error;
@@ -317,11 +274,11 @@ TEST(HostPoolFakeTest, HealthCheckDecidesWhenAHostIsUsed) {
 }
 
 TEST(HostPoolFakeTest, RejectsBadConstruction) {
-  EXPECT_THROW(HostPool({}, Settings()), Error);
+  EXPECT_THROW(HostPool({}, FakeSettings()), Error);
   PoolOptions options;
   options.max_attempts = 0;
-  EXPECT_THROW(HostPool({{"127.0.0.1", 1}}, Settings(), options), Error);
-  EXPECT_THROW(HostPool({{"127.0.0.1", 1}, {"127.0.0.1", 1}}, Settings()), Error);
+  EXPECT_THROW(HostPool({{"127.0.0.1", 1}}, FakeSettings(), options), Error);
+  EXPECT_THROW(HostPool({{"127.0.0.1", 1}, {"127.0.0.1", 1}}, FakeSettings()), Error);
 }
 
 }  // namespace

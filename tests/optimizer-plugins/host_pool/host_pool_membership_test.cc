@@ -22,30 +22,6 @@ using namespace testing;  // NOLINT: the test helpers
 using ::yamor::testing::CodeOf;
 using std::chrono::seconds;
 
-PoolOptions FastRetry() {
-  PoolOptions options;
-  options.health_timeout = 2;
-  options.retry_initial = 0.05;
-  options.retry_max = 0.2;
-  options.give_up_after = 30;
-  return options;
-}
-
-EvaluationSettings Settings() {
-  EvaluationSettings settings;
-  settings.warmup = 1;
-  settings.duration = 2;
-  settings.deadline_seconds = 20;
-  return settings;
-}
-
-void ExpectScored(const std::vector<Candidate>& batch, const std::vector<Evaluation>& results) {
-  ASSERT_EQ(results.size(), batch.size());
-  for (std::size_t i = 0; i < batch.size(); ++i) {
-    EXPECT_EQ(results[i].velocity, Score(batch[i].parameters)) << "slot " << i;
-  }
-}
-
 std::optional<HostStatus> StatusNamed(const HostPool& pool, const HostAddress& address) {
   for (const HostStatus& s : pool.Status()) {
     if (s.address.ToString() == address.ToString()) return s;
@@ -67,7 +43,7 @@ TEST(HostPoolMembershipTest, AnAddedHostJoinsAfterItsHealthCheck) {
   b.delay_ms = 30;
   FakeServer server_a(&a), server_b(&b);
   server_b.SetServing(false);
-  HostPool pool({server_a.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address()}, FakeSettings(), FastRetry());
   pool.SetHosts({server_a.address(), server_b.address()});
   ASSERT_TRUE(WaitFor([&] { return StatusNamed(pool, server_b.address()).has_value(); }));
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
@@ -90,7 +66,7 @@ TEST(HostPoolMembershipTest, ARemovedHostFinishesItsEvaluationsAndTakesNoMore) {
   a.delay_ms = 300;
   b.delay_ms = 20;
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(16);
   auto running = std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch); });
   ASSERT_TRUE(WaitFor([&] { return a.calls.load() == 2; }));
@@ -118,7 +94,7 @@ TEST(HostPoolMembershipTest, AHostFailingWhileDrainingHasItsWorkRequeued) {
   a.hang_all = true;  // its evaluations never finish by themselves
   b.delay_ms = 10;
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(8);
   auto running = std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch); });
   ASSERT_TRUE(WaitFor([&] { return a.calls.load() == 2; }));
@@ -135,7 +111,7 @@ TEST(HostPoolMembershipTest, ADrainingHostListedAgainStays) {
   FakeHost a, b;
   a.delay_ms = 200;
   FakeServer server_a(&a), server_b(&b);
-  HostPool pool({server_a.address(), server_b.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address(), server_b.address()}, FakeSettings(), FastRetry());
   const std::vector<Candidate> batch = MakeCandidates(10);
   auto running = std::async(std::launch::async, [&] { return EvaluateGuarded(pool, batch); });
   ASSERT_TRUE(WaitFor([&] { return a.calls.load() >= 1; }));
@@ -153,7 +129,7 @@ TEST(HostPoolMembershipTest, ADrainingHostListedAgainStays) {
 TEST(HostPoolMembershipTest, BadListsChangeNothing) {
   FakeHost a;
   FakeServer server_a(&a);
-  HostPool pool({server_a.address()}, Settings(), FastRetry());
+  HostPool pool({server_a.address()}, FakeSettings(), FastRetry());
   EXPECT_EQ(CodeOf([&] { pool.SetHosts({}); }), StatusCode::kInvalidArgument);
   EXPECT_EQ(CodeOf([&] { pool.SetHosts({server_a.address(), server_a.address()}); }),
             StatusCode::kInvalidArgument);
@@ -174,7 +150,7 @@ TEST(HostPoolMembershipTest, TheWatcherAppliesTheHostFileWhenItChanges) {
     std::filesystem::rename(temporary, path);
   };
   write(server_a.address().ToString() + "\n");
-  HostPool pool(ParseHosts("@" + path), Settings(), FastRetry());
+  HostPool pool(ParseHosts("@" + path), FakeSettings(), FastRetry());
   HostListWatcher watcher(path, pool, 0.02);
   write("# two now\n" + server_a.address().ToString() + "\n" + server_b.address().ToString() +
         "\n");

@@ -1,5 +1,6 @@
 // Helpers for the host pool tests: an in-process fake yamord (scripted
-// failures, hangs), its server, candidates and polling.
+// failures, hangs), its server, candidates, pool options and settings,
+// result checks and polling.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -28,6 +29,39 @@ inline double Score(const std::vector<std::pair<std::string, double>>& parameter
     score += static_cast<double>(i + 1) * parameters[i].second;
   }
   return score;
+}
+
+/// Pool options that notice failures and recover within a test's patience:
+/// health checks of `health_timeout` s, re-checks from 0.05 s up to
+/// `retry_max` s, giving up after 30 s without a healthy host.
+inline PoolOptions FastRetry(double health_timeout = 2, double retry_max = 0.2) {
+  PoolOptions options;
+  options.health_timeout = health_timeout;
+  options.retry_initial = 0.05;
+  options.retry_max = retry_max;
+  options.give_up_after = 30;
+  return options;
+}
+
+/// Settings of the fake hosts' evaluations: 1 s warm-up, 2 s measured
+/// (a fake's distance is 2 x its score), a 20 s deadline.
+inline EvaluationSettings FakeSettings() {
+  EvaluationSettings settings;
+  settings.warmup = 1;
+  settings.duration = 2;
+  settings.deadline_seconds = 20;
+  return settings;
+}
+
+/// Every result is the fake's score of its own candidate (FakeSettings).
+inline void ExpectScored(const std::vector<Candidate>& batch, const std::vector<Evaluation>& results) {
+  ASSERT_EQ(results.size(), batch.size());
+  for (std::size_t i = 0; i < batch.size(); ++i) {
+    EXPECT_EQ(results[i].velocity, Score(batch[i].parameters)) << "slot " << i;
+    EXPECT_EQ(results[i].distance, 2.0 * Score(batch[i].parameters)) << "slot " << i;
+    EXPECT_FALSE(results[i].diverged);
+    EXPECT_FALSE(results[i].host.empty());
+  }
 }
 
 /// `count` distinct candidates; `tag` keeps batches of different threads apart.

@@ -22,6 +22,7 @@
 
 #include "common/status.h"
 #include "tests/optimizer-plugins/host_pool/host_pool_test_util.h"
+#include "tests/support/code_of.h"
 #include "tests/support/yamord_process.h"
 
 namespace yamor::optimizer {
@@ -55,14 +56,8 @@ EvaluationSettings Quadruped() {
   return settings;
 }
 
-PoolOptions FastRetry() {
-  PoolOptions options;
-  options.health_timeout = 5;
-  options.retry_initial = 0.05;
-  options.retry_max = 0.5;
-  options.give_up_after = 30;
-  return options;
-}
+// Real daemons start slower than fakes: a longer health check and backoff.
+PoolOptions DaemonRetry() { return FastRetry(5, 0.5); }
 
 std::vector<Candidate> Gaits(int count) {
   std::vector<Candidate> out;
@@ -96,21 +91,11 @@ yamor::v1::EvaluateResponse DirectEvaluate(const HostAddress& address,
   return response;
 }
 
-// The code of what `f` throws (kOk when it returns).
-StatusCode CodeOfFilm(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.code();
-  }
-  return StatusCode::kOk;
-}
-
 TEST(HostPoolYamordTest, TwoDaemonsGiveTheDirectResultsInOrder) {
   Daemon a(1), b(1);
   ASSERT_GT(a.port(), 0);
   ASSERT_GT(b.port(), 0);
-  HostPool pool({a.address(), b.address()}, Quadruped(), FastRetry());
+  HostPool pool({a.address(), b.address()}, Quadruped(), DaemonRetry());
   EXPECT_EQ(pool.Capacity(), 2);
   const std::vector<Candidate> batch = Gaits(6);
   const std::vector<Evaluation> results = EvaluateGuarded(pool, batch);
@@ -134,7 +119,7 @@ TEST(HostPoolYamordTest, DaemonKilledMidBatch) {
   Daemon a(1), b(1);
   ASSERT_GT(a.port(), 0);
   ASSERT_GT(b.port(), 0);
-  HostPool pool({a.address(), b.address()}, Quadruped(), FastRetry());
+  HostPool pool({a.address(), b.address()}, Quadruped(), DaemonRetry());
   // Each gait twice: equal results prove no slot got another's reply.
   std::vector<Candidate> batch;
   for (const Candidate& c : Gaits(4)) {
@@ -164,7 +149,7 @@ TEST(HostPoolYamordTest, DaemonKilledMidBatch) {
 TEST(HostPoolYamordTest, UnknownParameterIsACallerError) {
   Daemon a(1);
   ASSERT_GT(a.port(), 0);
-  HostPool pool({a.address()}, Quadruped(), FastRetry());
+  HostPool pool({a.address()}, Quadruped(), DaemonRetry());
   try {
     pool.EvaluateBatch({Candidate{{{"phase.0.1", 1.0}, {"foo.3", 2.0}}}});
     ADD_FAILURE() << "no error";
@@ -192,7 +177,7 @@ TEST(HostPoolYamordTest, FilmCandidateReturnsTheFramesOfTheSameEvaluation) {
   options.height = 24;
   options.frame_rate = 10;
   {
-    HostPool only_blind({blind.address()}, Quadruped(), FastRetry());
+    HostPool only_blind({blind.address()}, Quadruped(), DaemonRetry());
     try {
       only_blind.FilmCandidate(candidate, options);
       ADD_FAILURE() << "a daemon without a renderer filmed";
@@ -206,7 +191,7 @@ TEST(HostPoolYamordTest, FilmCandidateReturnsTheFramesOfTheSameEvaluation) {
 
   Daemon a(1);
   ASSERT_GT(a.port(), 0);
-  HostPool pool({blind.address(), a.address()}, Quadruped(), FastRetry());
+  HostPool pool({blind.address(), a.address()}, Quadruped(), DaemonRetry());
   const std::vector<Evaluation> batch = EvaluateGuarded(pool, {candidate});
   FilmResult film;
   try {
@@ -257,7 +242,7 @@ TEST(HostPoolYamordTest, FilmCandidateReturnsTheFramesOfTheSameEvaluation) {
   slow.width = 640;
   slow.height = 480;
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_EQ(CodeOfFilm([&] { pool.FilmCandidate(candidate, slow, [] { return true; }); }),
+  EXPECT_EQ(::yamor::testing::CodeOf([&] { pool.FilmCandidate(candidate, slow, [] { return true; }); }),
             StatusCode::kCancelled);
   EXPECT_LT(std::chrono::steady_clock::now() - start, seconds(30));
 }
@@ -267,7 +252,7 @@ TEST(HostPoolYamordTest, TheRobotsConditionReachesEveryEvaluation) {
   Daemon a(1);
   ASSERT_GT(a.port(), 0);
   const std::vector<Candidate> gait = Gaits(1);
-  HostPool healthy({a.address()}, Quadruped(), FastRetry());
+  HostPool healthy({a.address()}, Quadruped(), DaemonRetry());
   const double base = EvaluateGuarded(healthy, gait).at(0).velocity;
 
   EvaluationSettings broken = Quadruped();
@@ -277,7 +262,7 @@ TEST(HostPoolYamordTest, TheRobotsConditionReachesEveryEvaluation) {
   broken.ground_slope = 0.05;
   broken.ground_slope_direction = 1.0;
   broken.upside_down = true;
-  HostPool pool({a.address()}, broken, FastRetry());
+  HostPool pool({a.address()}, broken, DaemonRetry());
   const double changed = EvaluateGuarded(pool, gait).at(0).velocity;
   EXPECT_NE(changed, base);
 
@@ -313,7 +298,7 @@ TEST(HostPoolYamordTest, TheRobotsConditionReachesEveryEvaluation) {
 
   EvaluationSettings unknown = Quadruped();
   unknown.module_defects = {77};
-  HostPool refused({a.address()}, unknown, FastRetry());
+  HostPool refused({a.address()}, unknown, DaemonRetry());
   std::string message;
   try {
     refused.EvaluateBatch(gait);
@@ -350,7 +335,7 @@ TEST(HostPoolYamordTest, HostFileGrowsAndShrinksWhileBatchesRun) {
   auto a = std::make_unique<Daemon>(1);
   ASSERT_GT(a->port(), 0);
   write({a.get()});
-  HostPool pool(ParseHosts("@" + path), settings, FastRetry());
+  HostPool pool(ParseHosts("@" + path), settings, DaemonRetry());
   HostListWatcher watcher(path, pool, 0.05);
 
   // Batches of 4 gaits, each twice: equal results prove no slot got

@@ -1,5 +1,5 @@
-// yamor-lifelong: keeps one robot walking for life (thesis chapter 7). See
-// `yamor-lifelong --help` and docs/lifelong.md.
+#include "optimizer-plugins/lifelong/run.h"
+
 #include <unistd.h>
 
 #include <atomic>
@@ -22,9 +22,9 @@
 #include "common/log.h"
 #include "common/status.h"
 #include "cpg/config_xml.h"
-#include "optimizer-plugins/framework/host_rpc.h"
 #include "optimizer-plugins/framework/optimization_config.h"
 #include "optimizer-plugins/framework/progress.h"
+#include "optimizer-plugins/framework/run_setup.h"
 #include "optimizer-plugins/lifelong/daemon_port.h"
 #include "optimizer-plugins/lifelong/gait_database.h"
 #include "optimizer-plugins/lifelong/life_cycle.h"
@@ -33,9 +33,9 @@
 #include "optimizer-plugins/lifelong/status_service.h"
 #include "optimizer-plugins/lifelong/timeline.h"
 
+namespace yamor::lifelong {
+
 namespace fs = std::filesystem;
-using namespace yamor;
-using namespace yamor::lifelong;
 
 namespace {
 
@@ -51,12 +51,13 @@ std::string ReadText(const std::string& path, const std::string& what) {
   return s.str();
 }
 
-// The command line with the scenario's [options] put before the user's
-// arguments for every option the user did not give.
+// The command line (without the program name) with the scenario's
+// [options] put before the user's arguments for every option the user did
+// not give.
 std::vector<std::string> WithScenarioOptions(const std::vector<std::string>& args) {
   std::string scenario_path;
   std::set<std::string> given;
-  for (std::size_t i = 1; i < args.size(); ++i) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
     if (a.rfind("--", 0) != 0) continue;
     const std::string name = a.substr(2, a.find('=') == std::string::npos ? std::string::npos : a.find('=') - 2);
@@ -68,7 +69,7 @@ std::vector<std::string> WithScenarioOptions(const std::vector<std::string>& arg
   }
   if (scenario_path.empty()) return args;
   const Scenario scenario = Scenario::Load(scenario_path);
-  std::vector<std::string> out = {args.front()};
+  std::vector<std::string> out;
   for (const auto& [name, values] : scenario.options) {
     if (given.count(name)) continue;
     for (const std::string& v : values) {
@@ -77,7 +78,7 @@ std::vector<std::string> WithScenarioOptions(const std::vector<std::string>& arg
       if (v != "true") out.push_back(v);  // a flag given
     }
   }
-  out.insert(out.end(), args.begin() + 1, args.end());
+  out.insert(out.end(), args.begin(), args.end());
   return out;
 }
 
@@ -95,7 +96,8 @@ std::string ProgressLine(const LifeStatus& s) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int Run(const std::vector<std::string>& command_line, std::ostream& out, std::ostream& err,
+        const std::string& program) {
   CLI::App app{
       "yamor-lifelong: keeps one robot walking for life (thesis chapter 7): measures its velocity, notices\n"
       "anomalies (EMA rule, physical-change events, accelerometers), recalls stored gaits, rebuilds the CPG\n"
@@ -211,16 +213,20 @@ int main(int argc, char** argv) {
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
 
-  std::vector<std::string> args(argv, argv + argc);
+  std::vector<std::string> args;
   try {
-    args = WithScenarioOptions(args);
+    args = WithScenarioOptions(command_line);
   } catch (const Error& e) {
-    std::cerr << "yamor-lifelong: " << e.what() << "\n";
+    err << "yamor-lifelong: " << e.what() << "\n";
     return 2;
   }
-  std::vector<char*> arg_pointers;
-  for (std::string& a : args) arg_pointers.push_back(a.data());
-  CLI11_PARSE(app, static_cast<int>(arg_pointers.size()), arg_pointers.data());
+  app.name(program);
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 parses from the back
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e, out, err);
+  }
 
   try {
     SetLogLevel(log_level);
@@ -238,13 +244,7 @@ int main(int argc, char** argv) {
     relearn.mode = mode;
     relearn.plugin = plugin;
     relearn.plugin_dirs = plugin_dirs;
-    for (const std::string& kv : sets) {
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos || eq == 0) {
-        throw Error(StatusCode::kInvalidArgument, "--set " + kv + ": expected KEY=VALUE");
-      }
-      relearn.set[kv.substr(0, eq)] = kv.substr(eq + 1);
-    }
+    for (const auto& [key, value] : optimizer::ParseFieldSettings(sets)) relearn.set[key] = value;
     if (!model_hosts.empty()) relearn.model_hosts = optimizer::ParseHosts(model_hosts);
     relearn.model_seed = scenario ? scenario->seed : 0;
     // Relearning and recall trials: settle, then measure, as the live evaluator does.
@@ -276,7 +276,7 @@ int main(int argc, char** argv) {
     DaemonPort port(address.front(), port_options);
     std::optional<ScenarioPlayer> player;
     if (scenario) {
-      player.emplace(*scenario, port.stub(), port.rpc_deadline(), [&](double t, const ScenarioChange& c) {
+      player.emplace(*scenario, port.host(), port.rpc_deadline(), [&](double t, const ScenarioChange& c) {
         Log().info("scenario: {} at {} s", c.Describe(), FormatRounded(t));
         log.Event({.time = t,
                    .kind = "scenario_change",
@@ -293,15 +293,7 @@ int main(int argc, char** argv) {
       v1::RenderFrameRequest request;
       request.set_width(640);
       request.set_height(480);
-      grpc::ClientContext context;
-      context.set_deadline(optimizer::DeadlineAfter(port.rpc_deadline()));
-      v1::RenderFrameResponse response;
-      const grpc::Status status = port.stub().RenderFrame(&context, request, &response);
-      if (!status.ok()) {
-        throw Error(static_cast<StatusCode>(status.error_code()),
-                    "RenderFrame: " + optimizer::DescribeStatus(status));
-      }
-      return response.png();
+      return port.host().Call(&v1::Host::Stub::RenderFrame, request, "RenderFrame").png();
     });
     SessionRelearner relearner(port, relearn);
     LifeCycle cycle(port, relearner, db, framing, life);
@@ -319,10 +311,10 @@ int main(int argc, char** argv) {
       }
       status_server = std::make_unique<StatusServer>(listen, log, context);
       const std::string bound = listen.substr(0, listen.rfind(':'));
-      std::cout << "yamor-lifelong: status on " << bound << ":" << status_server->port() << std::endl;
+      out << "yamor-lifelong: status on " << bound << ":" << status_server->port() << std::endl;
     }
 
-    std::cerr << "yamor-lifelong: robot at " << address.front().ToString() << ", gait " << config_path
+    err << "yamor-lifelong: robot at " << address.front().ToString() << ", gait " << config_path
               << (initial.problem_xml.empty() ? "" : " (with its rules)") << ", relearning " << mode << " with "
               << relearner.plugin().name() << "; output in " << out_dir << "\n";
 
@@ -337,7 +329,7 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_for(std::chrono::milliseconds(100));
         if (g_signals.load() > 0 && !stopping) {
           stopping = true;
-          std::cerr << (tty ? "\n" : "") << "yamor-lifelong: stopping (the database and timeline are kept)\n";
+          err << (tty ? "\n" : "") << "yamor-lifelong: stopping (the database and timeline are kept)\n";
           cycle.RequestStop();
         }
         const auto now = std::chrono::steady_clock::now();
@@ -345,14 +337,14 @@ int main(int argc, char** argv) {
                            : now - last_line > std::chrono::seconds(10))) {
           const std::string line = ProgressLine(cycle.Status());
           if (tty) {
-            std::cerr << "\r\033[K" << line << std::flush;
+            err << "\r\033[K" << line << std::flush;
           } else {
-            std::cerr << "yamor-lifelong: " << line << "\n";
+            err << "yamor-lifelong: " << line << "\n";
           }
           last_line = now;
         }
       }
-      if (!quiet && tty) std::cerr << "\r\033[K" << ProgressLine(cycle.Status()) << "\n";
+      if (!quiet && tty) err << "\r\033[K" << ProgressLine(cycle.Status()) << "\n";
     });
     // The status service's streams end once what was logged has been sent.
     auto end_service = [&] {
@@ -383,23 +375,25 @@ int main(int argc, char** argv) {
                    optimizer::FindPython(source_dir));
     }
     const LifeStatus& s = summary.status;
-    std::cout << "yamor-lifelong: " << summary.reason << " after " << optimizer::FormatDuration(s.time)
+    out << "yamor-lifelong: " << summary.reason << " after " << optimizer::FormatDuration(s.time)
               << " of life: " << s.anomalies << " anomalies, " << s.recalls << " recalled, " << s.relearns
               << " relearned, " << s.trials << " trials, " << s.gaps << " gaps; walking gait " << s.gait << "\n";
     const fs::path dir = fs::absolute(out_dir);
-    std::cout << "  timeline: " << (dir / "timeline.csv").string() << "\n  events:   "
+    out << "  timeline: " << (dir / "timeline.csv").string() << "\n  events:   "
               << (dir / "events.jsonl").string() << "\n  gaits:    " << fs::absolute(db_path).string() << "\n";
-    if (fs::exists(dir / "timeline.png")) std::cout << "  plot:     " << (dir / "timeline.png").string() << "\n";
+    if (fs::exists(dir / "timeline.png")) out << "  plot:     " << (dir / "timeline.png").string() << "\n";
     if (framing.frames() > 0) {
-      std::cout << "  frames:   " << (dir / "frames").string() << "/ (" << framing.frames()
+      out << "  frames:   " << (dir / "frames").string() << "/ (" << framing.frames()
                 << " pictures of the key moments; events.jsonl names each)\n";
     }
     return g_signals.load() > 0 ? 130 : 0;
   } catch (const Error& e) {
-    std::cerr << "yamor-lifelong: " << e.what() << "\n";
+    err << "yamor-lifelong: " << e.what() << "\n";
     return e.code() == StatusCode::kInvalidArgument || e.code() == StatusCode::kNotFound ? 2 : 1;
   } catch (const std::exception& e) {
-    std::cerr << "yamor-lifelong: " << e.what() << "\n";
+    err << "yamor-lifelong: " << e.what() << "\n";
     return 1;
   }
 }
+
+}  // namespace yamor::lifelong

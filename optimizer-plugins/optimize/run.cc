@@ -1,6 +1,5 @@
-// yamor-optimize: runs an optimizer plugin against a pool of yamord hosts
-// (thesis 5.7, appendix D), or online on one live robot (--live, thesis 6.3).
-// See `yamor-optimize --help` and docs/optimizers.md.
+#include "optimizer-plugins/optimize/run.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -39,9 +38,10 @@
 #include "optimizer-plugins/framework/session.h"
 #include "optimizer-plugins/film/best_video.h"
 
+namespace yamor::optimize {
+
 namespace fs = std::filesystem;
-using namespace yamor;
-using namespace yamor::optimizer;
+using namespace yamor::optimizer;  // NOLINT: the command is the framework's user
 
 namespace {
 
@@ -61,33 +61,33 @@ std::string KindName(YamorFieldKind kind) {
   return "?";
 }
 
-int ListPlugins(const std::vector<std::string>& dirs) {
+int ListPlugins(const std::vector<std::string>& dirs, std::ostream& out) {
   const std::vector<std::string> files = ListPluginFiles(dirs);
   if (files.empty()) {
-    std::cout << "no optimizer plugins found in:";
-    for (const auto& d : dirs) std::cout << " " << d;
-    std::cout << "\n";
+    out << "no optimizer plugins found in:";
+    for (const auto& d : dirs) out << " " << d;
+    out << "\n";
     return 1;
   }
   for (const std::string& file : files) {
     try {
       const LoadedPlugin p = LoadedPlugin::Load(file);
-      std::cout << p.name() << " " << p.version() << " (" << p.author() << ") — " << p.description()
-                << "\n  " << file << "\n";
+      out << p.name() << " " << p.version() << " (" << p.author() << ") — " << p.description()
+          << "\n  " << file << "\n";
       for (const FieldSpec& f : p.fields()) {
-        std::cout << "  --set " << f.name << "=" << (f.default_value.empty() ? "\"\"" : f.default_value)
-                  << "  [" << KindName(f.kind);
+        out << "  --set " << f.name << "=" << (f.default_value.empty() ? "\"\"" : f.default_value)
+            << "  [" << KindName(f.kind);
         if (f.kind == YAMOR_FIELD_INTEGER || f.kind == YAMOR_FIELD_REAL) {
-          std::cout << " in [" << FormatDouble(f.min) << ", " << FormatDouble(f.max) << "]";
+          out << " in [" << FormatDouble(f.min) << ", " << FormatDouble(f.max) << "]";
         }
         if (f.kind == YAMOR_FIELD_CHOICE) {
-          std::cout << ":";
-          for (std::size_t i = 0; i < f.choices.size(); ++i) std::cout << (i ? "|" : " ") << f.choices[i];
+          out << ":";
+          for (std::size_t i = 0; i < f.choices.size(); ++i) out << (i ? "|" : " ") << f.choices[i];
         }
-        std::cout << "] " << f.description << (f.framework ? " (every plugin)" : "") << "\n";
+        out << "] " << f.description << (f.framework ? " (every plugin)" : "") << "\n";
       }
     } catch (const Error& e) {
-      std::cout << file << ": not usable: " << e.what() << "\n";
+      out << file << ": not usable: " << e.what() << "\n";
     }
   }
   return 0;
@@ -138,9 +138,9 @@ void DrawProgress(const std::string& out_dir, const std::string& title) {
 }
 
 // The command line as a shell would take it back (run.toml's info.command).
-std::string CommandLine(int argc, char** argv) {
+std::string CommandLine(const std::vector<std::string>& argv) {
   std::string line;
-  for (int i = 0; i < argc; ++i) {
+  for (std::size_t i = 0; i < argv.size(); ++i) {
     std::string arg = argv[i];
     if (arg.empty() || arg.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                                              "0123456789_-.,:/=@+") != std::string::npos) {
@@ -179,7 +179,7 @@ std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig&
                                        const Problem& problem, const SessionResult& result,
                                        const FilmOptions& options, double seconds,
                                        const fs::path& dir,
-                                       const std::function<bool()>& cancelled) {
+                                       const std::function<bool()>& cancelled, std::ostream& err) {
   std::vector<std::string> lines;
   try {
     const Candidate candidate = problem.to_candidate(result.best_point);
@@ -214,7 +214,7 @@ std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig&
     }
     const BestVideo video = WriteBestVideo(film, options.frame_rate, period, dir.string());
     if (!video.video_error.empty()) {
-      std::cerr << "yamor-optimize: warning: no video of the best gait: " << video.video_error << "\n";
+      err << "yamor-optimize: warning: no video of the best gait: " << video.video_error << "\n";
     } else if (video.video) {
       lines.push_back("  video:     " + video.video_path + " (" + std::to_string(video.frames) +
                       " frames, " + FormatDouble(options.frame_rate) + " fps, filmed on " +
@@ -225,12 +225,12 @@ std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig&
       lines.push_back("  note:      " + video.note);
     }
     if (!video.strip_error.empty()) {
-      std::cerr << "yamor-optimize: warning: no best-strip.png: " << video.strip_error << "\n";
+      err << "yamor-optimize: warning: no best-strip.png: " << video.strip_error << "\n";
     } else {
       lines.push_back("  strip:     " + video.strip_path);
     }
   } catch (const std::exception& e) {
-    std::cerr << "yamor-optimize: warning: no video of the best gait (the results are kept): "
+    err << "yamor-optimize: warning: no video of the best gait (the results are kept): "
               << e.what() << "\n";
   }
   return lines;
@@ -238,7 +238,10 @@ std::vector<std::string> MakeBestVideo(HostPool& pool, const OptimizationConfig&
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int Run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+        const std::string& program) {
+  std::vector<std::string> command{program};
+  command.insert(command.end(), args.begin(), args.end());
   CLI::App app{
       "yamor-optimize: learns gaits by running an optimizer plugin over a pool of yamord hosts,\n"
       "or online on the robot of one yamord (--live).\n"
@@ -297,13 +300,19 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--quiet", quiet, "No progress line");
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, off")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  app.name(program);
+  std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 parses from the back
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e, out, err);
+  }
 
   try {
     SetLogLevel(log_level);
     std::vector<std::string> dirs = plugin_dirs;
     for (const auto& d : DefaultPluginDirs()) dirs.push_back(d);
-    if (list_plugins) return ListPlugins(dirs);
+    if (list_plugins) return ListPlugins(dirs, out);
 
     if (plugin_name.empty()) throw Error(StatusCode::kInvalidArgument, "--plugin is required (see --list-plugins)");
     if (config_path.empty()) throw Error(StatusCode::kInvalidArgument, "--config is required");
@@ -327,14 +336,7 @@ int main(int argc, char** argv) {
     if (!(warmup >= 0 && duration > 0)) {
       throw Error(StatusCode::kInvalidArgument, "--warmup must be >= 0 and --duration > 0");
     }
-    std::map<std::string, std::string> set;
-    for (const std::string& kv : sets) {
-      const auto eq = kv.find('=');
-      if (eq == std::string::npos || eq == 0) {
-        throw Error(StatusCode::kInvalidArgument, "--set " + kv + ": expected KEY=VALUE");
-      }
-      set[kv.substr(0, eq)] = kv.substr(eq + 1);
-    }
+    const std::map<std::string, std::string> set = ParseFieldSettings(sets);
 
     const bool live = app.count("--live") > 0;
     if (live) {
@@ -443,9 +445,9 @@ int main(int argc, char** argv) {
           SessionOptions{.label = instance.name, .seed = instance.seed, .set = instance_set,
                          .out_dir = dir, .evaluator_description = evaluator_description,
                          .live = live, .resume = !resume_dir.empty(), .identity = identity,
-                         .info = {{"command", CommandLine(argc, argv)}}}));
+                         .info = {{"command", CommandLine(command)}}}));
     }
-    std::cerr << "yamor-optimize: " << plugin.name() << " " << plugin.version() << " on "
+    err << "yamor-optimize: " << plugin.name() << " " << plugin.version() << " on "
               << config.optimized().size() << " parameters of " << config_path << "; "
               << evaluator_line << "; results in " << out_dir << "\n";
 
@@ -469,7 +471,7 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
       if (g_signals.load() > 0 && !stopping) {
         stopping = true;
-        std::cerr << (tty ? "\n" : "") << "yamor-optimize: stopping (results so far are kept)\n";
+        err << (tty ? "\n" : "") << "yamor-optimize: stopping (results so far are kept)\n";
         for (auto& s : sessions) s->RequestStop();
         evaluator->RequestStop();
       }
@@ -477,13 +479,13 @@ int main(int argc, char** argv) {
       const double elapsed = std::chrono::duration<double>(now - start).count();
       if (!quiet && (tty || now - last_line > std::chrono::seconds(10))) {
         const std::string line = ProgressLine(sessions, elapsed, live_evaluator.get());
-        if (tty) std::cerr << "\r\033[K" << line << std::flush;
-        else std::cerr << "yamor-optimize: " << line << "\n";
+        if (tty) err << "\r\033[K" << line << std::flush;
+        else err << "yamor-optimize: " << line << "\n";
         last_line = now;
       }
     }
     for (auto& t : threads) t.join();
-    if (!quiet && tty) std::cerr << "\r\033[K" << ProgressLine(sessions,
+    if (!quiet && tty) err << "\r\033[K" << ProgressLine(sessions,
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(),
         live_evaluator.get()) << "\n";
 
@@ -498,7 +500,7 @@ int main(int argc, char** argv) {
     film_options.height = video_height;
     film_options.frame_rate = video_fps;
     if (!no_video && live) {
-      std::cerr << "yamor-optimize: no video with --live (film the robot with yamorctl record)\n";
+      err << "yamor-optimize: no video with --live (film the robot with yamorctl record)\n";
     }
 
     int exit_code = 0;
@@ -510,35 +512,37 @@ int main(int argc, char** argv) {
       }
       std::vector<std::string> video_lines;
       if (!no_video && pool && r.has_best && !video_cancelled()) {
-        if (!quiet) std::cerr << "yamor-optimize: filming the best gait (Ctrl-C skips it)\n";
+        if (!quiet) err << "yamor-optimize: filming the best gait (Ctrl-C skips it)\n";
         video_lines = MakeBestVideo(*pool, config, problem, r, film_options, warmup + duration,
-                                    fs::absolute(instance_dirs[i]), video_cancelled);
+                                    fs::absolute(instance_dirs[i]), video_cancelled, err);
       }
-      std::cout << "yamor-optimize: " << (batch_path.empty() ? "" : "[" + instances[i].name + "] ")
+      out << "yamor-optimize: " << (batch_path.empty() ? "" : "[" + instances[i].name + "] ")
                 << r.status << " after " << r.evaluations << " evaluations";
       if (r.has_best) {
         char velocity[64];
         std::snprintf(velocity, sizeof(velocity), "%.3f cm/s", r.best_velocity * 100.0);
-        std::cout << "; best velocity " << velocity << " (evaluation " << r.best_index << ")";
+        out << "; best velocity " << velocity << " (evaluation " << r.best_index << ")";
       }
-      std::cout << "\n";
-      if (live) std::cout << "  robot time: " << FormatDuration(r.robot_seconds) << " in "
+      out << "\n";
+      if (live) out << "  robot time: " << FormatDuration(r.robot_seconds) << " in "
                           << r.evaluations << " live trials\n";
-      if (!r.error.empty()) std::cout << "  error: " << r.error << "\n";
+      if (!r.error.empty()) out << "  error: " << r.error << "\n";
       const fs::path dir = fs::absolute(instance_dirs[i]);
-      std::cout << "  results:   " << dir.string() << "/ (evaluations.csv, summary.json)\n";
-      if (r.has_best) std::cout << "  best gait: " << (dir / "best.xml").string() << "\n";
-      if (fs::exists(dir / "progress.png")) std::cout << "  plot:      " << (dir / "progress.png").string() << "\n";
-      for (const std::string& line : video_lines) std::cout << line << "\n";
+      out << "  results:   " << dir.string() << "/ (evaluations.csv, summary.json)\n";
+      if (r.has_best) out << "  best gait: " << (dir / "best.xml").string() << "\n";
+      if (fs::exists(dir / "progress.png")) out << "  plot:      " << (dir / "progress.png").string() << "\n";
+      for (const std::string& line : video_lines) out << line << "\n";
       if (r.status == "failed") exit_code = 1;
     }
     if (g_signals.load() > 0 && exit_code == 0) exit_code = 130;
     return exit_code;
   } catch (const Error& e) {
-    std::cerr << "yamor-optimize: " << e.what() << "\n";
+    err << "yamor-optimize: " << e.what() << "\n";
     return e.code() == StatusCode::kInvalidArgument || e.code() == StatusCode::kNotFound ? 2 : 1;
   } catch (const std::exception& e) {
-    std::cerr << "yamor-optimize: " << e.what() << "\n";
+    err << "yamor-optimize: " << e.what() << "\n";
     return 1;
   }
 }
+
+}  // namespace yamor::optimize
